@@ -1,0 +1,56 @@
+//! Azimuthal scattering N_p: the trimmed logistic about the specular deflection Phi(p, h)
+//! (seed 002 section 1.3.3) and its exact sampler.
+
+use crate::conventions::wrap_angle;
+use std::f64::consts::PI;
+
+/// Logistic scale `s` from the user roughness `beta_n` in [0, 1] (seed 002 section 1.3.3):
+/// s = sqrt(pi/8) (0.265 beta + 1.194 beta^2 + 5.372 beta^22).
+pub fn scale_from_beta_n(beta_n: f64) -> f64 {
+    (PI / 8.0).sqrt() * (0.265 * beta_n + 1.194 * beta_n * beta_n + 5.372 * beta_n.powi(22))
+}
+
+/// Net azimuthal deflection of the specular path p: Phi = 2 p gamma_t - 2 gamma_o + p pi.
+pub fn phi_p(p: usize, gamma_o: f64, gamma_t: f64) -> f64 {
+    let p = p as f64;
+    2.0 * p * gamma_t - 2.0 * gamma_o + p * PI
+}
+
+fn logistic_cdf(x: f64, s: f64) -> f64 {
+    1.0 / (1.0 + (-x / s).exp())
+}
+
+/// The logistic distribution of scale `s` trimmed to [-pi, pi] and renormalized.
+#[derive(Clone, Copy, Debug)]
+pub struct TrimmedLogistic {
+    s: f64,
+    /// CDF of the untrimmed logistic at -pi.
+    cdf_lo: f64,
+    /// Its mass inside [-pi, pi].
+    mass: f64,
+}
+
+impl TrimmedLogistic {
+    pub fn new(s: f64) -> TrimmedLogistic {
+        let cdf_lo = logistic_cdf(-PI, s);
+        TrimmedLogistic { s, cdf_lo, mass: logistic_cdf(PI, s) - cdf_lo }
+    }
+
+    /// Density at x in [-pi, pi]: e^(-|x|/s) / (s (1 + e^(-|x|/s))^2) / mass.
+    pub fn pdf(&self, x: f64) -> f64 {
+        let e = (-x.abs() / self.s).exp();
+        e / (self.s * (1.0 + e) * (1.0 + e) * self.mass)
+    }
+
+    /// Inverse-CDF sample from u in [0, 1).
+    pub fn sample(&self, u: f64) -> f64 {
+        let x = -self.s * (1.0 / (u * self.mass + self.cdf_lo) - 1.0).ln();
+        // u -> 0 gives -inf and u -> 1 can round past pi; both belong at the interval's ends.
+        if x.is_nan() { 0.0 } else { x.clamp(-PI, PI) }
+    }
+
+    /// N_p(phi) for lobe p: the density of the azimuth offset from Phi(p, h), in 1/radian.
+    pub fn np(&self, phi: f64, p: usize, gamma_o: f64, gamma_t: f64) -> f64 {
+        self.pdf(wrap_angle(phi - phi_p(p, gamma_o, gamma_t)))
+    }
+}

@@ -1,0 +1,73 @@
+//! Single-fiber scattering models (BCSDFs) and their direction samplers.
+//!
+//! Every model implements [`FiberModel`]; callers (the lobe image, the tables, the integrators)
+//! never ask which model they hold. Directions are unit vectors in the local fiber frame of
+//! [`crate::conventions`]. `wo` is the fixed direction the model is normalized for (pbrt's
+//! omega_o: toward the camera in a path tracer, toward the light in the precomputed tables) and
+//! `wi` the direction integrated or sampled over.
+
+mod attenuation;
+mod azimuthal;
+mod chiang;
+mod longitudinal;
+mod params;
+
+pub use attenuation::{P_MAX, fresnel_dielectric};
+pub use azimuthal::scale_from_beta_n;
+pub use chiang::Chiang;
+pub use longitudinal::{mp, variance_from_beta_m};
+pub use params::{Absorption, FiberParams, ParamError};
+
+use crate::conventions::SPHERE;
+use crate::spectrum::Rgb;
+use glam::DVec3;
+
+/// A direction drawn by a sampler, with what an estimator needs.
+#[derive(Clone, Copy, Debug)]
+pub struct FiberSample {
+    pub wi: DVec3,
+    /// The projected BCSDF `f(wo, wi) |cos theta_i|` at `wi`.
+    pub value: Rgb,
+    /// Density of `wi` per unit solid angle.
+    pub pdf: f64,
+}
+
+impl FiberSample {
+    /// The Monte Carlo weight `f |cos theta_i| / pdf`.
+    pub fn weight(&self) -> Rgb {
+        self.value / self.pdf
+    }
+}
+
+/// A single-fiber scattering model together with a sampler for it.
+pub trait FiberModel: Send + Sync {
+    /// The projected BCSDF `f(wo, wi) |cos theta_i|` (pbrt's f times |cos theta_i|), per unit solid
+    /// angle of `wi`, for a hit at offset `h`. Returning the projected value keeps it finite at
+    /// theta_i = +-pi/2, and it is what every estimator multiplies by.
+    fn eval(&self, wo: DVec3, wi: DVec3, h: f64) -> Rgb;
+
+    /// Draws `wi` from four uniform numbers in [0, 1); `None` if no direction can be drawn.
+    fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<FiberSample>;
+
+    /// Density per unit solid angle with which [`FiberModel::sample`] draws `wi`.
+    fn pdf(&self, wo: DVec3, wi: DVec3, h: f64) -> f64;
+}
+
+/// Any fiber model, sampled uniformly over the sphere: the baseline for comparisons.
+pub struct UniformSampled<M>(pub M);
+
+impl<M: FiberModel> FiberModel for UniformSampled<M> {
+    fn eval(&self, wo: DVec3, wi: DVec3, h: f64) -> Rgb {
+        self.0.eval(wo, wi, h)
+    }
+
+    fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<FiberSample> {
+        let sin_t = 1.0 - 2.0 * u[0];
+        let wi = crate::conventions::direction(sin_t.asin(), std::f64::consts::TAU * u[1]);
+        Some(FiberSample { wi, value: self.0.eval(wo, wi, h), pdf: 1.0 / SPHERE })
+    }
+
+    fn pdf(&self, _wo: DVec3, _wi: DVec3, _h: f64) -> f64 {
+        1.0 / SPHERE
+    }
+}

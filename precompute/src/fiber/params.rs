@@ -1,0 +1,109 @@
+//! The fiber material description shared by the CLI, scene files and the tables: roughness,
+//! scale tilt, index of refraction, and absorption given in one of three ways.
+
+use crate::spectrum::Rgb;
+use serde::{Deserialize, Serialize};
+
+/// Absorption of the fiber interior, per unit fiber radius (design section 3).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Absorption {
+    /// sigma_a per color channel, given directly.
+    SigmaA([f64; 3]),
+    /// Pigment concentrations (seed 002 section 1.5; d'Eon et al. 2011): about 8 for black,
+    /// 1.3 for brown and 0.3 for blond eumelanin.
+    Melanin { eumelanin: f64, pheomelanin: f64 },
+    /// A desired diffuse-looking hair color in (0, 1] per channel, mapped through the fit of
+    /// Chiang et al. 2016 (seed 002 section 1.5, `SigmaAFromReflectance`).
+    Color([f64; 3]),
+}
+
+/// Parameters of a single fiber. Defaults: brown hair (eumelanin 1.3), beta_m = beta_n = 0.3,
+/// alpha = 2 degrees, eta = 1.55.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FiberParams {
+    pub absorption: Absorption,
+    /// Longitudinal roughness in (0, 1].
+    pub beta_m: f64,
+    /// Azimuthal roughness in (0, 1].
+    pub beta_n: f64,
+    /// Cuticle scale tilt in degrees; positive shifts R toward the root (pbrt-v3's sign; Cycles'
+    /// "Offset" has the opposite sign).
+    pub alpha: f64,
+    /// Index of refraction of the fiber relative to the surrounding medium (> 1).
+    pub eta: f64,
+}
+
+impl Default for FiberParams {
+    fn default() -> Self {
+        FiberParams {
+            absorption: Absorption::Melanin { eumelanin: 1.3, pheomelanin: 0.0 },
+            beta_m: 0.3,
+            beta_n: 0.3,
+            alpha: 2.0,
+            eta: 1.55,
+        }
+    }
+}
+
+/// A fiber parameter outside its valid range; the message names the field.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error("fiber parameter `{field}` {problem} (got {value})")]
+pub struct ParamError {
+    pub field: &'static str,
+    pub problem: &'static str,
+    pub value: f64,
+}
+
+fn check(field: &'static str, value: f64, ok: bool, problem: &'static str) -> Result<(), ParamError> {
+    if value.is_finite() && ok { Ok(()) } else { Err(ParamError { field, problem, value }) }
+}
+
+/// Per-unit-concentration absorption of the two melanins (pbrt; seed 002 section 1.5).
+const EUMELANIN_SIGMA_A: [f64; 3] = [0.419, 0.697, 1.37];
+const PHEOMELANIN_SIGMA_A: [f64; 3] = [0.187, 0.4, 1.05];
+
+impl FiberParams {
+    /// Checks every field; the error names the first one out of range.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        check("beta_m", self.beta_m, self.beta_m > 0.0 && self.beta_m <= 1.0, "must be in (0, 1]")?;
+        check("beta_n", self.beta_n, self.beta_n > 0.0 && self.beta_n <= 1.0, "must be in (0, 1]")?;
+        check("alpha", self.alpha, self.alpha.abs() <= 20.0, "must be within +-20 degrees")?;
+        check("eta", self.eta, self.eta > 1.0 && self.eta <= 4.0, "must be in (1, 4]")?;
+        match self.absorption {
+            Absorption::SigmaA(s) => {
+                for v in s {
+                    check("sigma_a", v, v >= 0.0, "must be >= 0 in every channel")?;
+                }
+            }
+            Absorption::Melanin { eumelanin, pheomelanin } => {
+                check("eumelanin", eumelanin, eumelanin >= 0.0, "must be >= 0")?;
+                check("pheomelanin", pheomelanin, pheomelanin >= 0.0, "must be >= 0")?;
+            }
+            Absorption::Color(c) => {
+                for v in c {
+                    check("color", v, v > 0.0 && v <= 1.0, "must be in (0, 1] in every channel")?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The absorption coefficient per unit radius this description stands for.
+    pub fn sigma_a(&self) -> Rgb {
+        match self.absorption {
+            Absorption::SigmaA(s) => Rgb(s),
+            Absorption::Melanin { eumelanin, pheomelanin } => {
+                Rgb(EUMELANIN_SIGMA_A) * eumelanin + Rgb(PHEOMELANIN_SIGMA_A) * pheomelanin
+            }
+            Absorption::Color(c) => {
+                // Chiang et al. 2016 fit (seed 002 section 1.5): sigma_a = (ln c / poly(beta_n))^2.
+                let b = self.beta_n;
+                let poly =
+                    5.969 - 0.215 * b + 2.532 * b.powi(2) - 10.73 * b.powi(3) + 5.574 * b.powi(4) + 0.245 * b.powi(5);
+                Rgb(c).map(|c| (c.ln() / poly).powi(2))
+            }
+        }
+    }
+}

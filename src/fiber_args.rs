@@ -1,0 +1,62 @@
+//! Command-line flags describing a fiber, shared by every command that needs one.
+
+use precompute::fiber::{Absorption, FiberParams, ParamError};
+
+/// Fiber material flags. Absorption comes from exactly one of --sigma-a, --eumelanin/--pheomelanin
+/// or --color; with none of them the hair is brown (eumelanin 1.3).
+#[derive(clap::Args, Debug, Clone)]
+pub struct FiberArgs {
+    /// Absorption coefficient per unit fiber radius, "R,G,B" (or one value for all channels).
+    #[arg(long, value_name = "R,G,B", value_parser = parse_rgb, allow_hyphen_values = true, conflicts_with_all = ["eumelanin", "pheomelanin", "color"])]
+    pub sigma_a: Option<[f64; 3]>,
+    /// Eumelanin concentration: about 0.3 blond, 1.3 brown, 8 black.
+    #[arg(long, value_name = "C", conflicts_with = "color", allow_negative_numbers = true)]
+    pub eumelanin: Option<f64>,
+    /// Pheomelanin concentration (red hair).
+    #[arg(long, value_name = "C", conflicts_with = "color", allow_negative_numbers = true)]
+    pub pheomelanin: Option<f64>,
+    /// Desired hair color "R,G,B" in (0, 1], mapped to absorption by the Chiang et al. 2016 fit.
+    #[arg(long, value_name = "R,G,B", value_parser = parse_rgb, allow_hyphen_values = true)]
+    pub color: Option<[f64; 3]>,
+    /// Longitudinal roughness in (0, 1].
+    #[arg(long, default_value_t = 0.3, allow_negative_numbers = true)]
+    pub beta_m: f64,
+    /// Azimuthal roughness in (0, 1].
+    #[arg(long, default_value_t = 0.3, allow_negative_numbers = true)]
+    pub beta_n: f64,
+    /// Cuticle scale tilt in degrees (negative allowed; pbrt's sign, the opposite of Cycles' Offset).
+    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
+    pub alpha: f64,
+    /// Index of refraction of the fiber (> 1).
+    #[arg(long, default_value_t = 1.55, allow_negative_numbers = true)]
+    pub eta: f64,
+}
+
+impl FiberArgs {
+    /// The validated fiber description these flags stand for.
+    pub fn params(&self) -> Result<FiberParams, ParamError> {
+        let absorption = match (self.sigma_a, self.eumelanin, self.pheomelanin, self.color) {
+            (Some(s), ..) => Absorption::SigmaA(s),
+            (_, None, None, Some(c)) => Absorption::Color(c),
+            (_, None, None, None) => FiberParams::default().absorption,
+            (_, e, p, _) => Absorption::Melanin { eumelanin: e.unwrap_or(0.0), pheomelanin: p.unwrap_or(0.0) },
+        };
+        let params =
+            FiberParams { absorption, beta_m: self.beta_m, beta_n: self.beta_n, alpha: self.alpha, eta: self.eta };
+        params.validate()?;
+        Ok(params)
+    }
+}
+
+/// Parses "R,G,B" or a single value for all three channels.
+fn parse_rgb(s: &str) -> Result<[f64; 3], String> {
+    let values: Vec<f64> = s
+        .split(',')
+        .map(|v| v.trim().parse::<f64>().map_err(|e| format!("`{v}` is not a number: {e}")))
+        .collect::<Result<_, _>>()?;
+    match values[..] {
+        [v] => Ok([v; 3]),
+        [r, g, b] => Ok([r, g, b]),
+        _ => Err(format!("expected R,G,B or one value, got {} values", values.len())),
+    }
+}

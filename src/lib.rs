@@ -1,0 +1,10 @@
+//! dualhair: a hair renderer that makes multiple scattering cheap.
+//!
+//! This crate is the renderer side: command-line arguments, image output and the commands of the
+//! `dualhair` binary. The fiber models and everything precomputed from them live in the
+//! `precompute` crate.
+
+pub mod fiber_args;
+pub mod lobe_cmd;
+pub mod output;
+pub mod plot;

@@ -1,0 +1,88 @@
+//! `dualhair lobe`: the h-averaged scattering lobe of one fiber as a lat-long image.
+
+use crate::fiber_args::FiberArgs;
+use crate::output::{ImageFormat, write_exr, write_png};
+use crate::plot::HeatMap;
+use anyhow::{Result, bail};
+use precompute::fiber::{Chiang, scale_from_beta_n};
+use precompute::lobe::{LobeImage, h_rule, lobe_image};
+use std::f64::consts::{FRAC_PI_2, PI};
+use std::path::PathBuf;
+
+/// Writes the lobe of a fiber lit from inclination --theta (azimuth 0) as a lat-long image:
+/// x = azimuth from -pi (left) to pi (right), y = inclination from +pi/2 (top) to -pi/2 (bottom).
+/// Each pixel is the h-averaged f(wo, wi) |cos theta_i|, so that summing
+/// pixel * cos(theta) * dtheta * dphi gives the fiber's albedo.
+#[derive(clap::Args, Debug)]
+pub struct LobeArgs {
+    /// Inclination of the light direction in radians, in [-pi/2, pi/2] (e.g. --theta=-1.0).
+    #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
+    pub theta: f64,
+    #[command(flatten)]
+    pub fiber: FiberArgs,
+    /// Image width in pixels (azimuth samples).
+    #[arg(long, default_value_t = 512)]
+    pub width: usize,
+    /// Image height in pixels (inclination samples).
+    #[arg(long, default_value_t = 256)]
+    pub height: usize,
+    /// Output file: .exr for linear RGB float values, .png for a log-scale picture with a color bar.
+    #[arg(short, long, value_name = "FILE")]
+    pub output: PathBuf,
+}
+
+pub fn run(args: &LobeArgs) -> Result<()> {
+    if !(-FRAC_PI_2..=FRAC_PI_2).contains(&args.theta) {
+        bail!("--theta must be in [-pi/2, pi/2] radians, got {}", args.theta);
+    }
+    for (name, v) in [("--width", args.width), ("--height", args.height)] {
+        if !(1..=16384).contains(&v) {
+            bail!("{name} must be between 1 and 16384, got {v}");
+        }
+    }
+    let format = ImageFormat::from_path(&args.output)?;
+    let params = args.fiber.params()?;
+    let model = Chiang::new(&params)?;
+    let rule = h_rule(scale_from_beta_n(params.beta_n), 1);
+    let image = lobe_image(&model, args.theta, args.width, args.height, &rule);
+    match format {
+        ImageFormat::Exr => {
+            let pixels: Vec<[f32; 3]> = image.pixels.iter().map(|p| p.0.map(|c| c as f32)).collect();
+            write_exr(&args.output, image.width, image.height, &pixels)?;
+        }
+        ImageFormat::Png => write_png(&args.output, &chart(&image, args)?)?,
+    }
+    let a = image.albedo().0;
+    println!(
+        "wrote {} ({}x{}); albedo (R, G, B) = ({:.4}, {:.4}, {:.4})",
+        args.output.display(),
+        image.width,
+        image.height,
+        a[0],
+        a[1],
+        a[2]
+    );
+    Ok(())
+}
+
+fn chart(image: &LobeImage, args: &LobeArgs) -> Result<image::RgbImage> {
+    let f = &args.fiber;
+    let values: Vec<f64> = image.pixels.iter().map(|p| p.luminance()).collect();
+    let title = format!(
+        "fiber lobe, light at theta = {:.3} rad: beta_m {}, beta_n {}, alpha {} deg, eta {}",
+        args.theta, f.beta_m, f.beta_n, f.alpha, f.eta
+    );
+    HeatMap {
+        title: &title,
+        x_label: "azimuth phi (rad)",
+        y_label: "inclination theta (rad)",
+        bar_label: "luminance, h-averaged f cos (1/sr)",
+        xs: (-PI, PI),
+        ys: (-FRAC_PI_2, FRAC_PI_2),
+        width: image.width,
+        height: image.height,
+        values: &values,
+        decades: 4.0,
+    }
+    .draw()
+}

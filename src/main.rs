@@ -1,0 +1,31 @@
+use clap::{Parser, Subcommand};
+use dualhair::lobe_cmd::{self, LobeArgs};
+
+/// dualhair: a hair renderer that makes multiple scattering cheap (dual scattering with a
+/// voxel hair-density grid, d'Eon importance sampling, and a path-traced reference).
+#[derive(Parser, Debug)]
+#[command(version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Write a lat-long image of a single fiber's scattering lobe.
+    Lobe(LobeArgs),
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Lobe(args) => lobe_cmd::run(args),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,57 @@
+//! Writing result files: whole or not at all.
+
+use anyhow::{Context, Result, bail};
+use std::path::Path;
+
+/// Image formats the commands write, chosen by the output file's extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// Linear RGB, 32-bit float.
+    Exr,
+    /// 8-bit sRGB.
+    Png,
+}
+
+impl ImageFormat {
+    pub fn from_path(path: &Path) -> Result<ImageFormat> {
+        match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+            Some("exr") => Ok(ImageFormat::Exr),
+            Some("png") => Ok(ImageFormat::Png),
+            _ => bail!("{}: unsupported output type (use .exr or .png)", path.display()),
+        }
+    }
+}
+
+/// Runs `write` on a temporary file beside `path` and renames it into place only if it succeeds,
+/// so an error or interrupt never leaves a half-written output.
+pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let suffix = path.extension().map(|e| format!(".{}", e.to_string_lossy())).unwrap_or_default();
+    let tmp = tempfile::Builder::new()
+        .prefix(".dualhair-")
+        .suffix(&suffix)
+        .tempfile_in(dir)
+        .with_context(|| format!("{}: cannot create a file in this folder", path.display()))?;
+    write(tmp.path()).with_context(|| format!("{}: writing failed", path.display()))?;
+    tmp.persist(path).with_context(|| format!("{}: cannot move the finished file into place", path.display()))?;
+    Ok(())
+}
+
+/// Writes linear RGB pixels (rows top to bottom) as a 32-bit float EXR.
+pub fn write_exr(path: &Path, width: usize, height: usize, pixels: &[[f32; 3]]) -> Result<()> {
+    write_atomically(path, |tmp| {
+        exr::prelude::write_rgb_file(tmp, width, height, |x, y| {
+            let [r, g, b] = pixels[y * width + x];
+            (r, g, b)
+        })?;
+        Ok(())
+    })
+}
+
+/// Writes an 8-bit RGB image as PNG.
+pub fn write_png(path: &Path, image: &image::RgbImage) -> Result<()> {
+    write_atomically(path, |tmp| Ok(image.save_with_format(tmp, image::ImageFormat::Png)?))
+}

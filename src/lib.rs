@@ -4,7 +4,15 @@
 //! `dualhair` binary. The fiber models and everything precomputed from them live in the
 //! `precompute` crate.
 
+pub mod camera;
 pub mod fiber_args;
+pub mod fibers;
+pub mod film;
+pub mod integrator;
+pub mod light;
 pub mod lobe_cmd;
 pub mod output;
 pub mod plot;
+pub mod render;
+pub mod render_cmd;
+pub mod scene;

@@ -1,5 +1,6 @@
 use clap::{Parser, Subcommand};
 use dualhair::lobe_cmd::{self, LobeArgs};
+use dualhair::render_cmd::{self, RenderArgs};
 
 /// dualhair: a hair renderer that makes multiple scattering cheap (dual scattering with a
 /// voxel hair-density grid, d'Eon importance sampling, and a path-traced reference).
@@ -12,6 +13,8 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Render a scene to EXR and PNG.
+    Render(RenderArgs),
     /// Write a lat-long image of a single fiber's scattering lobe.
     Lobe(LobeArgs),
 }
@@ -19,6 +22,7 @@ enum Command {
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
+        Command::Render(args) => render_cmd::run(args),
         Command::Lobe(args) => lobe_cmd::run(args),
     };
     match result {

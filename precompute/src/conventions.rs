@@ -31,6 +31,18 @@ pub fn phi(w: DVec3) -> f64 {
     w.z.atan2(w.y)
 }
 
+/// Offset `h = sin(gamma_o)` of a hit across the fiber, from the direction toward the viewer `wo`
+/// and the surface normal `n` at the hit, both in the fiber frame.
+///
+/// gamma_o = phi_o - phi_n: then the mirror direction of `wo` about `n` in the normal plane has
+/// azimuth phi_o - 2 gamma_o, which is the deflection Phi(0, h) = -2 gamma_o of the R lobe
+/// (seed 002 section 1.3.3). Returns 0 where either direction has no normal-plane component.
+pub fn h_offset(wo: DVec3, n: DVec3) -> f64 {
+    let (o, m) = ((wo.y, wo.z), (n.y, n.z));
+    let norm = (o.0 * o.0 + o.1 * o.1).sqrt() * (m.0 * m.0 + m.1 * m.1).sqrt();
+    if norm > 0.0 { ((o.1 * m.0 - o.0 * m.1) / norm).clamp(-1.0, 1.0) } else { 0.0 }
+}
+
 /// An angle wrapped into [-pi, pi].
 pub fn wrap_angle(x: f64) -> f64 {
     x - TAU * (x / TAU).round()
@@ -41,3 +53,20 @@ pub const LUMINANCE: [f64; 3] = [0.2126, 0.7152, 0.0722];
 
 /// Solid angle of the whole sphere.
 pub const SPHERE: f64 = 4.0 * PI;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn h_offset_matches_the_r_lobe_deflection() {
+        // Reflect wo about the normal in the normal plane; its azimuth must be phi_o - 2 asin(h).
+        for (phi_o, phi_n) in [(0.3, 0.9), (2.0, 1.2), (-2.9, 2.8), (0.0, -1.4)] {
+            let wo = direction(0.4, phi_o);
+            let n = DVec3::new(0.0, f64::cos(phi_n), f64::sin(phi_n));
+            let h = h_offset(wo, n);
+            let reflected = 2.0 * phi_n - phi_o;
+            assert!(wrap_angle(reflected - (phi_o - 2.0 * h.asin())).abs() < 1e-12, "{phi_o} {phi_n}");
+        }
+    }
+}

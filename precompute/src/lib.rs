@@ -11,3 +11,4 @@ pub mod lobe;
 pub mod quadrature;
 pub mod special;
 pub mod spectrum;
+pub mod strands;

@@ -12,7 +12,12 @@ pub enum Absorption {
     SigmaA([f64; 3]),
     /// Pigment concentrations (seed 002 section 1.5; d'Eon et al. 2011): about 8 for black,
     /// 1.3 for brown and 0.3 for blond eumelanin.
-    Melanin { eumelanin: f64, pheomelanin: f64 },
+    Melanin {
+        #[serde(default)]
+        eumelanin: f64,
+        #[serde(default)]
+        pheomelanin: f64,
+    },
     /// A desired diffuse-looking hair color in (0, 1] per channel, mapped through the fit of
     /// Chiang et al. 2016 (seed 002 section 1.5, `SigmaAFromReflectance`).
     Color([f64; 3]),

@@ -1,0 +1,171 @@
+//! Ray queries against hair: a BVH (obvhs CwBvh) over strand segments, each a capsule.
+//!
+//! Fibers are the union of capsules around the strand segments (a sphere swept along each
+//! polyline). A ray only ever hits a fiber from outside: a ray that starts on or inside a capsule
+//! passes out of it. That matches the far-field fiber BCSDF, whose light enters and leaves at one
+//! point, so rays leaving a scattering event need no origin offset and cannot self-intersect.
+//!
+//! CwBvh skips nodes closer than a hard-coded 1e-4 along the ray (notes/dependencies.md), which
+//! would drop hits between hair-thin fibers in scene units. The BVH therefore works in "fiber
+//! units": world coordinates divided by the mean fiber radius, so radii are O(1) and the cut-off is
+//! 1e-4 radii. Callers see world units only.
+
+use glam::{DVec3, Vec3, Vec3A};
+use obvhs::BvhBuildParams;
+use obvhs::aabb::Aabb;
+use obvhs::cwbvh::CwBvh;
+use obvhs::ray::{Ray, RayHit};
+use precompute::strands::Strands;
+use std::time::Duration;
+
+/// A capsule in fiber units.
+#[derive(Clone, Copy, Debug)]
+struct Capsule {
+    a: DVec3,
+    b: DVec3,
+    r: f64,
+}
+
+/// A ray-fiber hit, in world units.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    pub t: f32,
+    pub point: Vec3,
+    /// Unit fiber tangent at the hit, root to tip.
+    pub tangent: Vec3,
+    /// Unit outward surface normal at the hit.
+    pub normal: Vec3,
+    /// Fiber radius at the hit.
+    pub radius: f32,
+    /// Index of the segment hit, in `Strands::segments` order.
+    pub segment: u32,
+}
+
+/// Hair ready for ray queries.
+pub struct Fibers {
+    bvh: CwBvh,
+    /// Capsules in BVH leaf order, in fiber units.
+    capsules: Vec<Capsule>,
+    /// Original segment index of each capsule.
+    ids: Vec<u32>,
+    /// World units to fiber units.
+    scale: f64,
+}
+
+/// Entry distance along a unit-direction ray into a capsule, if the ray enters it from outside at
+/// `t > t_min`. Works in f64 and, as notes/dependencies.md advises for thin capsules, solves each
+/// quadratic about the ray's closest approach instead of its origin, so no term of the size of the
+/// distance squared cancels against the radius squared.
+fn enter_capsule(o: DVec3, d: DVec3, c: &Capsule, t_min: f64) -> Option<f64> {
+    let ba = c.b - c.a;
+    let len = ba.length();
+    let u = ba / len;
+    let r2 = c.r * c.r;
+    let mut best = f64::INFINITY;
+    let mut consider = |t: f64, s: f64, lo: f64, hi: f64| {
+        if t > t_min && t < best && s >= lo && s <= hi {
+            best = t;
+        }
+    };
+    // Cylinder body: the ray projected on the normal plane of the axis.
+    let oa = o - c.a;
+    let d_perp = d - d.dot(u) * u;
+    let a2 = d_perp.length_squared();
+    if a2 > 1e-24 {
+        let o_perp = oa - oa.dot(u) * u;
+        let t0 = -o_perp.dot(d_perp) / a2;
+        let miss2 = (o_perp + t0 * d_perp).length_squared();
+        if miss2 <= r2 {
+            let t = t0 - ((r2 - miss2) / a2).sqrt();
+            consider(t, (oa + t * d).dot(u), 0.0, len);
+        }
+    }
+    // End caps: spheres, counted only on the outer half beyond each end of the axis.
+    for (center, lo, hi) in [(c.a, f64::NEG_INFINITY, 0.0), (c.b, len, f64::INFINITY)] {
+        let oc = o - center;
+        let t0 = -oc.dot(d);
+        let miss2 = (oc + t0 * d).length_squared();
+        if miss2 <= r2 {
+            let t = t0 - (r2 - miss2).sqrt();
+            consider(t, (o + t * d - c.a).dot(u), lo, hi);
+        }
+    }
+    best.is_finite().then_some(best)
+}
+
+impl Fibers {
+    /// Builds the BVH; `strands` must be valid (see `Strands::validate`).
+    pub fn new(strands: &Strands) -> Fibers {
+        let segments: Vec<_> = strands.segments().collect();
+        let mean_r = segments.iter().map(|s| s.radius as f64).sum::<f64>() / segments.len().max(1) as f64;
+        let scale = if mean_r > 0.0 { 1.0 / mean_r } else { 1.0 };
+        let aabbs: Vec<Aabb> = segments
+            .iter()
+            .map(|s| {
+                let (a, b, r) = (s.a.as_dvec3() * scale, s.b.as_dvec3() * scale, s.radius as f64 * scale);
+                // Pad by the radius plus a rounding margin so the f32 boxes surely contain the capsule.
+                let pad = DVec3::splat(r * (1.0 + 1e-5) + a.abs().max(b.abs()).max_element() * 1e-6);
+                Aabb::new(Vec3A::from((a.min(b) - pad).as_vec3()), Vec3A::from((a.max(b) + pad).as_vec3()))
+            })
+            .collect();
+        let mut build_time = Duration::ZERO;
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, BvhBuildParams::medium_build(), &mut build_time);
+        let ids = bvh.primitive_indices.clone();
+        let capsules = ids
+            .iter()
+            .map(|&i| {
+                let s = segments[i as usize];
+                Capsule { a: s.a.as_dvec3() * scale, b: s.b.as_dvec3() * scale, r: s.radius as f64 * scale }
+            })
+            .collect();
+        Fibers { bvh, capsules, ids, scale }
+    }
+
+    /// Minimum hit distance in fiber units (1e-6 radii): only rejects hits at the ray origin.
+    const T_MIN: f64 = 1e-6;
+
+    fn to_bvh_ray(&self, origin: Vec3, dir: Vec3, t_max: f32) -> (Ray, DVec3, DVec3) {
+        let (o, d) = (origin.as_dvec3() * self.scale, dir.as_dvec3().normalize());
+        let ray = Ray::new(Vec3A::from(o.as_vec3()), Vec3A::from(d.as_vec3()), 0.0, (t_max as f64 * self.scale) as f32);
+        (ray, o, d)
+    }
+
+    /// The closest fiber hit along the ray within `t_max` (world units), if any.
+    pub fn closest_hit(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
+        let (ray, o, d) = self.to_bvh_ray(origin, dir, t_max);
+        let mut hit = RayHit::none();
+        let mut best = f64::INFINITY;
+        self.bvh.ray_traverse(ray, &mut hit, |r, id| match enter_capsule(o, d, &self.capsules[id], Self::T_MIN) {
+            Some(t) if (t as f32) < r.tmax => {
+                best = t;
+                t as f32
+            }
+            _ => f32::INFINITY,
+        });
+        if hit.primitive_id == obvhs::ray::INVALID_ID {
+            return None;
+        }
+        let c = &self.capsules[hit.primitive_id as usize];
+        let p = o + best * d;
+        let u = (c.b - c.a).normalize();
+        let s = (p - c.a).dot(u).clamp(0.0, (c.b - c.a).length());
+        let normal = (p - (c.a + s * u)).normalize();
+        Some(Hit {
+            t: (best / self.scale) as f32,
+            point: (p / self.scale).as_vec3(),
+            tangent: u.as_vec3(),
+            normal: normal.as_vec3(),
+            radius: (c.r / self.scale) as f32,
+            segment: self.ids[hit.primitive_id as usize],
+        })
+    }
+
+    /// Whether any fiber blocks the ray before `t_max` (world units).
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+        let (ray, o, d) = self.to_bvh_ray(origin, dir, t_max);
+        !self.bvh.ray_traverse_miss(ray, |r, id| match enter_capsule(o, d, &self.capsules[id], Self::T_MIN) {
+            Some(t) if (t as f32) < r.tmax => t as f32,
+            _ => f32::INFINITY,
+        })
+    }
+}

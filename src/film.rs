@@ -1,0 +1,92 @@
+//! The film: per-pixel estimates and their output as EXR (with coverage, variance and sample
+//! count) and as a tone-mapped PNG.
+
+use crate::output::{write_atomically, write_png};
+use anyhow::Result;
+use exr::prelude::*;
+use precompute::spectrum::Rgb;
+use std::path::Path;
+
+/// A rendered image: per pixel the mean radiance, the hair coverage (alpha) and the variance of
+/// the mean (per channel), from `spp` samples per pixel. Rows top to bottom.
+pub struct Film {
+    pub width: usize,
+    pub height: usize,
+    pub spp: u32,
+    pub mean: Vec<Rgb>,
+    pub alpha: Vec<f64>,
+    pub variance: Vec<Rgb>,
+}
+
+/// Running sums of one pixel's samples.
+#[derive(Clone, Copy, Default)]
+pub struct PixelSums {
+    pub sum: Rgb,
+    pub sum_sq: Rgb,
+    pub hits: u32,
+}
+
+impl PixelSums {
+    pub fn add(&mut self, l: Rgb, hit: bool) {
+        self.sum += l;
+        self.sum_sq += l * l;
+        self.hits += hit as u32;
+    }
+}
+
+impl Film {
+    pub fn from_sums(width: usize, height: usize, spp: u32, sums: &[PixelSums]) -> Film {
+        let n = spp as f64;
+        let mean: Vec<Rgb> = sums.iter().map(|s| s.sum / n).collect();
+        let variance = sums
+            .iter()
+            .zip(&mean)
+            .map(
+                |(s, m)| {
+                    if spp > 1 { ((s.sum_sq - *m * s.sum) / (n - 1.0) / n).map(|v| v.max(0.0)) } else { Rgb::ZERO }
+                },
+            )
+            .collect();
+        let alpha = sums.iter().map(|s| s.hits as f64 / n).collect();
+        Film { width, height, spp, mean, alpha, variance }
+    }
+
+    /// Writes R, G, B, A (coverage) as 32-bit float, plus `variance.R/G/B` (variance of each
+    /// pixel's mean) and `spp` channels when `aovs` is set.
+    pub fn write_exr(&self, path: &Path, aovs: bool) -> Result<()> {
+        let f32s = |f: &dyn Fn(usize) -> f64| FlatSamples::F32((0..self.mean.len()).map(|i| f(i) as f32).collect());
+        let mut channels = vec![
+            AnyChannel::new("R", f32s(&|i| self.mean[i].0[0])),
+            AnyChannel::new("G", f32s(&|i| self.mean[i].0[1])),
+            AnyChannel::new("B", f32s(&|i| self.mean[i].0[2])),
+            AnyChannel::new("A", f32s(&|i| self.alpha[i])),
+        ];
+        if aovs {
+            for (c, name) in ["variance.R", "variance.G", "variance.B"].iter().enumerate() {
+                channels.push(AnyChannel::new(*name, f32s(&|i| self.variance[i].0[c])));
+            }
+            channels.push(AnyChannel::new("spp", f32s(&|_| self.spp as f64)));
+        }
+        let layer = Layer::new(
+            (self.width, self.height),
+            LayerAttributes::named("dualhair"),
+            Encoding::SMALL_LOSSLESS,
+            AnyChannels::sort(channels.into()),
+        );
+        write_atomically(path, |tmp| Ok(Image::from_layer(layer).write().to_file(tmp)?))
+    }
+
+    /// Writes an sRGB PNG of the radiance scaled by 2^`exposure`, clipped to [0, 1].
+    pub fn write_png(&self, path: &Path, exposure: f64) -> Result<()> {
+        let scale = exposure.exp2();
+        let encode = |v: f64| {
+            let v = (v * scale).clamp(0.0, 1.0);
+            let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+            (s * 255.0 + 0.5) as u8
+        };
+        let img = image::RgbImage::from_fn(self.width as u32, self.height as u32, |x, y| {
+            image::Rgb(self.mean[y as usize * self.width + x as usize].0.map(encode))
+        });
+        write_png(path, &img)
+    }
+}

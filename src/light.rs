@@ -1,0 +1,333 @@
+//! Light sources: an environment (constant, or a lat-long map with importance sampling) and a sun.
+//!
+//! World frame: +Z is up. Lat-long maps follow Blender's Z-up convention, so HDRIs look the same
+//! as there: texel column u = atan2(d.y, -d.x) / 2pi + 1/2, row from the top at elevation +pi/2
+//! to the bottom at -pi/2. `rotation` turns the map about +Z (degrees, counter-clockwise from above).
+
+use anyhow::{Context, Result, bail};
+use glam::DVec3;
+use precompute::spectrum::Rgb;
+use std::f64::consts::{PI, TAU};
+use std::path::Path;
+
+/// A direction toward a light, drawn by light sampling.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    pub wi: DVec3,
+    /// Radiance arriving from `wi`; for a delta light, the irradiance it delivers.
+    pub radiance: Rgb,
+    /// Solid-angle density of `wi`; 1 for a delta light.
+    pub pdf: f64,
+    pub delta: bool,
+}
+
+/// A lat-long environment map with a luminance-and-area-proportional sampling distribution.
+pub struct EnvMap {
+    width: usize,
+    height: usize,
+    texels: Vec<Rgb>,
+    /// Row CDF (height + 1 entries) and per-row column CDFs ((width + 1) per row), normalized.
+    row_cdf: Vec<f64>,
+    col_cdf: Vec<f64>,
+    /// Sum of the sampling weights, for the pdf.
+    total: f64,
+    rotation: f64,
+}
+
+/// Where the radiance of the sky comes from.
+pub enum Environment {
+    Constant(Rgb),
+    Map(EnvMap),
+}
+
+/// A distant disc light. `half_angle` 0 makes it a delta (directional) light.
+pub struct Sun {
+    /// Unit direction toward the sun.
+    pub direction: DVec3,
+    /// Irradiance on a surface facing the sun.
+    pub irradiance: Rgb,
+    pub half_angle: f64,
+}
+
+/// All lights of a scene.
+pub struct Lights {
+    pub environment: Option<Environment>,
+    pub sun: Option<Sun>,
+}
+
+/// Index of the CDF interval containing `u`, and `u` rescaled to [0, 1) within it.
+fn sample_cdf(cdf: &[f64], u: f64) -> (usize, f64) {
+    let i = cdf.partition_point(|&c| c <= u).clamp(1, cdf.len() - 1) - 1;
+    let width = cdf[i + 1] - cdf[i];
+    (i, if width > 0.0 { ((u - cdf[i]) / width).clamp(0.0, 1.0 - f64::EPSILON) } else { 0.5 })
+}
+
+fn uniform_sphere(u: [f64; 2]) -> DVec3 {
+    let z = 1.0 - 2.0 * u[0];
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (s, c) = (TAU * u[1]).sin_cos();
+    DVec3::new(r * c, r * s, z)
+}
+
+impl EnvMap {
+    /// Loads a lat-long map from an .exr (first RGB(A) layer) or .hdr (Radiance) file.
+    pub fn load(path: &Path, strength: f64, rotation_deg: f64) -> Result<EnvMap> {
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        let (width, height, texels) = match ext.as_deref() {
+            Some("exr") => {
+                let image = exr::prelude::read_first_rgba_layer_from_file(
+                    path,
+                    |res, _| (res.width(), vec![Rgb::ZERO; res.width() * res.height()]),
+                    |(w, px), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                        px[pos.y() * *w + pos.x()] = Rgb([r as f64, g as f64, b as f64])
+                    },
+                )
+                .with_context(|| format!("{}: cannot read as an EXR environment map", path.display()))?;
+                let (w, px) = image.layer_data.channel_data.pixels;
+                (w, px.len() / w.max(1), px)
+            }
+            Some("hdr") => {
+                let img = image::open(path)
+                    .with_context(|| format!("{}: cannot read as a Radiance HDR environment map", path.display()))?
+                    .into_rgb32f();
+                let px = img.pixels().map(|p| Rgb(p.0.map(|c| c as f64))).collect();
+                (img.width() as usize, img.height() as usize, px)
+            }
+            _ => bail!("{}: environment maps must be .exr or .hdr files", path.display()),
+        };
+        if width < 2 || height < 1 {
+            bail!("{}: an environment map needs at least 2x1 pixels, got {width}x{height}", path.display());
+        }
+        if let Some(i) = texels.iter().position(|t| !t.is_finite()) {
+            bail!(
+                "{}: pixel ({}, {}) is {:?}; radiance must be finite",
+                path.display(),
+                i % width,
+                i / width,
+                texels[i].0
+            );
+        }
+        // Lossy EXR compression (DWA) leaves small negative values; radiance cannot be negative.
+        let texels = texels.into_iter().map(|t| t.map(|c| c.max(0.0)) * strength).collect();
+        Ok(EnvMap::new(width, height, texels, rotation_deg))
+    }
+
+    fn new(width: usize, height: usize, texels: Vec<Rgb>, rotation_deg: f64) -> EnvMap {
+        // Weight of a texel: its luminance times the solid angle of its row (proportional to cos
+        // of the elevation at the row's center).
+        let mut col_cdf = Vec::with_capacity((width + 1) * height);
+        let mut row_cdf = vec![0.0];
+        for y in 0..height {
+            let area = ((0.5 - (y as f64 + 0.5) / height as f64) * PI).cos();
+            let start = col_cdf.len();
+            col_cdf.push(0.0);
+            for x in 0..width {
+                col_cdf.push(col_cdf[start + x] + texels[y * width + x].luminance() * area);
+            }
+            let row_total = col_cdf[start + width];
+            row_cdf.push(row_cdf[y] + row_total);
+            if row_total > 0.0 {
+                col_cdf[start..].iter_mut().for_each(|c| *c /= row_total);
+            }
+        }
+        let total = row_cdf[height];
+        if total > 0.0 {
+            row_cdf.iter_mut().for_each(|c| *c /= total);
+        }
+        EnvMap { width, height, texels, row_cdf, col_cdf, total, rotation: rotation_deg.to_radians() }
+    }
+
+    /// Continuous map coordinates (u right, v down, both in [0, 1)) of a world direction.
+    fn uv(&self, d: DVec3) -> (f64, f64) {
+        let phi = d.y.atan2(-d.x) - self.rotation;
+        let u = (phi / TAU + 0.5).rem_euclid(1.0);
+        let v = 0.5 - d.z.clamp(-1.0, 1.0).asin() / PI;
+        (u, v.clamp(0.0, 1.0))
+    }
+
+    fn direction(&self, u: f64, v: f64) -> DVec3 {
+        let phi = (u - 0.5) * TAU + self.rotation;
+        let elevation = (0.5 - v) * PI;
+        let (se, ce) = elevation.sin_cos();
+        DVec3::new(-phi.cos() * ce, phi.sin() * ce, se)
+    }
+
+    fn texel(&self, u: f64, v: f64) -> usize {
+        let x = ((u * self.width as f64) as usize).min(self.width - 1);
+        let y = ((v * self.height as f64) as usize).min(self.height - 1);
+        y * self.width + x
+    }
+
+    fn radiance(&self, d: DVec3) -> Rgb {
+        let (u, v) = self.uv(d);
+        self.texels[self.texel(u, v)]
+    }
+
+    /// Density per solid angle: the texel's share of the weight, spread uniformly over its (u, v)
+    /// cell, times the Jacobian 1 / (2 pi^2 cos(elevation)) of the lat-long map.
+    fn pdf(&self, d: DVec3) -> f64 {
+        if self.total <= 0.0 {
+            return 0.0;
+        }
+        let (u, v) = self.uv(d);
+        let i = self.texel(u, v);
+        let (x, y) = (i % self.width, i / self.width);
+        let row = &self.col_cdf[y * (self.width + 1)..(y + 1) * (self.width + 1)];
+        let p_uv = (self.row_cdf[y + 1] - self.row_cdf[y]) * (row[x + 1] - row[x]) * (self.width * self.height) as f64;
+        let cos_e = ((0.5 - v) * PI).cos();
+        if cos_e <= 0.0 { 0.0 } else { p_uv / (2.0 * PI * PI * cos_e) }
+    }
+
+    fn sample(&self, u: [f64; 2]) -> Option<LightSample> {
+        if self.total <= 0.0 {
+            return None;
+        }
+        let (y, ry) = sample_cdf(&self.row_cdf, u[0]);
+        let (x, rx) = sample_cdf(&self.col_cdf[y * (self.width + 1)..(y + 1) * (self.width + 1)], u[1]);
+        let (mu, mv) = ((x as f64 + rx) / self.width as f64, (y as f64 + ry) / self.height as f64);
+        let wi = self.direction(mu, mv);
+        let pdf = self.pdf(wi);
+        (pdf > 0.0).then(|| LightSample { wi, radiance: self.radiance(wi), pdf, delta: false })
+    }
+}
+
+impl Environment {
+    pub fn radiance(&self, d: DVec3) -> Rgb {
+        match self {
+            Environment::Constant(c) => *c,
+            Environment::Map(m) => m.radiance(d),
+        }
+    }
+
+    pub fn pdf(&self, d: DVec3) -> f64 {
+        match self {
+            Environment::Constant(_) => 1.0 / (4.0 * PI),
+            Environment::Map(m) => m.pdf(d),
+        }
+    }
+
+    pub fn sample(&self, u: [f64; 2]) -> Option<LightSample> {
+        match self {
+            Environment::Constant(c) => {
+                Some(LightSample { wi: uniform_sphere(u), radiance: *c, pdf: 1.0 / (4.0 * PI), delta: false })
+            }
+            Environment::Map(m) => m.sample(u),
+        }
+    }
+}
+
+impl Sun {
+    fn solid_angle(&self) -> f64 {
+        TAU * (1.0 - self.half_angle.cos())
+    }
+
+    /// Radiance of the disc: irradiance / (pi sin^2(half angle)) for a uniform disc.
+    fn disc_radiance(&self) -> Rgb {
+        self.irradiance / (PI * self.half_angle.sin().powi(2))
+    }
+
+    fn in_disc(&self, d: DVec3) -> bool {
+        self.half_angle > 0.0 && d.dot(self.direction) >= self.half_angle.cos()
+    }
+
+    pub fn radiance(&self, d: DVec3) -> Rgb {
+        if self.in_disc(d) { self.disc_radiance() } else { Rgb::ZERO }
+    }
+
+    pub fn pdf(&self, d: DVec3) -> f64 {
+        if self.in_disc(d) { 1.0 / self.solid_angle() } else { 0.0 }
+    }
+
+    /// Uniform over the disc's cone (or the exact direction for a delta sun).
+    pub fn sample(&self, u: [f64; 2]) -> LightSample {
+        if self.half_angle <= 0.0 {
+            return LightSample { wi: self.direction, radiance: self.irradiance, pdf: 1.0, delta: true };
+        }
+        let cos_t = 1.0 - u[0] * (1.0 - self.half_angle.cos());
+        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+        let (s, c) = (TAU * u[1]).sin_cos();
+        let (t1, t2) = self.direction.any_orthonormal_pair();
+        let wi = (t1 * (c * sin_t) + t2 * (s * sin_t) + self.direction * cos_t).normalize();
+        LightSample { wi, radiance: self.disc_radiance(), pdf: 1.0 / self.solid_angle(), delta: false }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small map with a bright spot, so the distribution is far from uniform.
+    fn spotty_map() -> EnvMap {
+        let (w, h) = (16, 8);
+        let texels = (0..w * h)
+            .map(|i| Rgb::splat(if i % w == 5 && i / w == 2 { 50.0 } else { 0.1 + (i % 7) as f64 * 0.1 }))
+            .collect();
+        EnvMap::new(w, h, texels, 30.0)
+    }
+
+    #[test]
+    fn env_pdf_integrates_to_one_and_matches_sampling() {
+        let map = spotty_map();
+        // Integral of the pdf over the sphere by a fine midpoint rule in (u, v).
+        let n = 800;
+        let mut total = 0.0;
+        for j in 0..n {
+            let v = (j as f64 + 0.5) / n as f64;
+            for i in 0..2 * n {
+                let u = (i as f64 + 0.5) / (2 * n) as f64;
+                let d = map.direction(u, v);
+                total += map.pdf(d) * ((0.5 - v) * PI).cos() * (PI / n as f64) * (TAU / (2 * n) as f64);
+            }
+        }
+        assert!((total - 1.0).abs() < 2e-3, "pdf integrates to {total}");
+        // E[L / pdf] over light samples is the integral of the radiance, which the midpoint rule gives too.
+        let mut integral = 0.0;
+        for j in 0..n {
+            let v = (j as f64 + 0.5) / n as f64;
+            for i in 0..2 * n {
+                let u = (i as f64 + 0.5) / (2 * n) as f64;
+                integral += map.radiance(map.direction(u, v)).0[0]
+                    * ((0.5 - v) * PI).cos()
+                    * (PI / n as f64)
+                    * (TAU / (2 * n) as f64);
+            }
+        }
+        let m = 200_000;
+        let mut estimate = 0.0;
+        for k in 0..m {
+            let u = [((k as f64 + 0.5) / m as f64), ((k as f64 * 0.618_033_988_749_895) % 1.0)];
+            let s = map.sample(u).unwrap();
+            estimate += s.radiance.0[0] / s.pdf / m as f64;
+        }
+        assert!((estimate - integral).abs() < 0.01 * integral, "{estimate} vs {integral}");
+    }
+
+    #[test]
+    fn lat_long_round_trip_and_orientation() {
+        let map = spotty_map();
+        for (u, v) in [(0.1, 0.2), (0.5, 0.5), (0.93, 0.77)] {
+            let (u2, v2) = map.uv(map.direction(u, v));
+            assert!((u - u2).abs() < 1e-12 && (v - v2).abs() < 1e-12);
+        }
+        // Top row is up; with rotation 0 the map's center column looks toward -X (Blender).
+        let plain = EnvMap::new(4, 2, vec![Rgb::ONE; 8], 0.0);
+        assert!(plain.direction(0.3, 0.0).z > 0.999);
+        assert!((plain.direction(0.5, 0.5) - DVec3::new(-1.0, 0.0, 0.0)).length() < 1e-12);
+    }
+
+    #[test]
+    fn sun_delivers_its_irradiance() {
+        // Integral of radiance * cos over the disc, for a surface facing the sun, equals irradiance.
+        let sun =
+            Sun { direction: DVec3::new(0.3, -0.2, 0.9).normalize(), irradiance: Rgb::splat(3.0), half_angle: 0.05 };
+        let m = 100_000;
+        let e: f64 = (0..m)
+            .map(|k| {
+                let s = sun.sample([(k as f64 + 0.5) / m as f64, (k as f64 * 0.754_877_666) % 1.0]);
+                s.radiance.0[0] * s.wi.dot(sun.direction) / s.pdf
+            })
+            .sum::<f64>()
+            / m as f64;
+        assert!((e - 3.0).abs() < 1e-3, "{e}");
+    }
+}

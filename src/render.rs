@@ -1,0 +1,45 @@
+//! The render loop: rows in parallel, one deterministic random stream per pixel.
+//!
+//! Each pixel's samples come from its own PCG stream seeded by (seed, pixel index), and each
+//! pixel's sums are accumulated in sample order by one thread, so an image depends only on the
+//! seed, never on the thread count or scheduling.
+
+use crate::camera::Camera;
+use crate::film::{Film, PixelSums};
+use crate::integrator::PathTracer;
+use indicatif::{ProgressBar, ProgressStyle};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use rayon::prelude::*;
+
+/// SplitMix64 finalizer: decorrelates the seeds of neighbouring pixels.
+fn mix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Renders `spp` box-filtered samples per pixel; `progress` shows a bar with ETA on a terminal.
+pub fn render(camera: &Camera, tracer: &PathTracer, spp: u32, seed: u64, progress: bool) -> Film {
+    let (w, h) = (camera.width, camera.height);
+    let bar = if progress { ProgressBar::new(h as u64) } else { ProgressBar::hidden() };
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} rendering [{bar:40}] {pos}/{len} rows, {elapsed} elapsed, ETA {eta}")
+            .expect("static progress template")
+            .progress_chars("=> "),
+    );
+    let mut sums = vec![PixelSums::default(); w * h];
+    sums.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, px) in row.iter_mut().enumerate() {
+            let mut rng = Pcg64Mcg::seed_from_u64(mix(seed ^ mix((y * w + x) as u64)));
+            for _ in 0..spp {
+                let (o, d) = camera.ray(x as f64 + rng.random::<f64>(), y as f64 + rng.random::<f64>());
+                let s = tracer.radiance(o, d, &mut rng);
+                px.add(s.radiance, s.hit_hair);
+            }
+        }
+        bar.inc(1);
+    });
+    bar.finish_and_clear();
+    Film::from_sums(w, h, spp, &sums)
+}

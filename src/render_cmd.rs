@@ -1,0 +1,121 @@
+//! `dualhair render`: renders a scene file to EXR and PNG.
+
+use crate::film::Film;
+use crate::integrator::PathTracer;
+use crate::render::render;
+use crate::scene::{IntegratorKind, Sampling, Scene, SceneFile};
+use anyhow::{Context, Result, bail};
+use precompute::fiber::{Chiang, FiberModel, UniformSampled};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Renders a scene (a JSON scene file, or a .hair file with every default). Flags override the
+/// scene file. Writes linear EXR (RGB + coverage alpha) and a tone-mapped sRGB PNG beside it.
+#[derive(clap::Args, Debug, Default)]
+pub struct RenderArgs {
+    /// Scene file (.json) or hair file (.hair); default: scenes/default.json.
+    pub scene: Option<PathBuf>,
+    /// Output image, .exr or .png (the other one is written beside it); default: render.exr.
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+    /// Samples per pixel.
+    #[arg(long)]
+    pub spp: Option<u32>,
+    #[arg(long, value_enum)]
+    pub integrator: Option<IntegratorKind>,
+    /// Fiber direction sampling.
+    #[arg(long, value_enum)]
+    pub sampling: Option<Sampling>,
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Most fiber vertices on a path (path integrator).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    #[arg(long)]
+    pub width: Option<usize>,
+    #[arg(long)]
+    pub height: Option<usize>,
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Also write per-pixel variance (variance.R/G/B) and sample-count (spp) channels to the EXR.
+    #[arg(long)]
+    pub aovs: bool,
+    /// Hide the progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// The EXR and PNG paths for an output argument.
+fn output_paths(output: Option<&Path>) -> Result<(PathBuf, PathBuf)> {
+    let out = output.unwrap_or(Path::new("render.exr"));
+    match out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("exr") => Ok((out.to_path_buf(), out.with_extension("png"))),
+        Some("png") => Ok((out.with_extension("exr"), out.to_path_buf())),
+        _ => bail!("{}: unsupported output type (use .exr or .png)", out.display()),
+    }
+}
+
+/// Loads the scene and applies the command-line overrides.
+pub fn scene_file(args: &RenderArgs) -> Result<SceneFile> {
+    let path = args.scene.clone().unwrap_or_else(|| PathBuf::from("scenes/default.json"));
+    if args.scene.is_none() && !path.exists() {
+        bail!(
+            "no scene given and {} does not exist here (run from the repository root or name a scene)",
+            path.display()
+        );
+    }
+    let mut file = SceneFile::load(&path)?;
+    let r = &mut file.render;
+    r.spp = args.spp.unwrap_or(r.spp);
+    r.integrator = args.integrator.unwrap_or(r.integrator);
+    r.sampling = args.sampling.unwrap_or(r.sampling);
+    r.seed = args.seed.unwrap_or(r.seed);
+    r.max_depth = args.max_depth.unwrap_or(r.max_depth);
+    file.camera.width = args.width.unwrap_or(file.camera.width);
+    file.camera.height = args.height.unwrap_or(file.camera.height);
+    Ok(file)
+}
+
+/// Renders a built scene with its own settings, on the current rayon pool.
+pub fn render_scene(scene: &Scene, progress: bool) -> Result<Film> {
+    let chiang = Chiang::new(&scene.fiber)?;
+    let uniform = UniformSampled(chiang.clone());
+    let fiber: &dyn FiberModel = match scene.render.sampling {
+        Sampling::Importance => &chiang,
+        Sampling::Uniform => &uniform,
+    };
+    let max_depth = match scene.render.integrator {
+        IntegratorKind::Single => 1,
+        IntegratorKind::Path => scene.render.max_depth,
+    };
+    let tracer = PathTracer { fibers: &scene.fibers, fiber, lights: &scene.lights, max_depth };
+    Ok(render(&scene.camera, &tracer, scene.render.spp, scene.render.seed, progress))
+}
+
+pub fn run(args: &RenderArgs) -> Result<()> {
+    let (exr, png) = output_paths(args.output.as_deref())?;
+    let start = Instant::now();
+    let scene = scene_file(args)?.build()?;
+    let setup = start.elapsed();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .context("cannot start the worker threads")?;
+    let film = pool.install(|| render_scene(&scene, !args.quiet))?;
+    film.write_exr(&exr, args.aovs)?;
+    film.write_png(&png, scene.render.exposure)?;
+    println!(
+        "wrote {} and {} ({}x{}, {} spp, {:?}): {} strands, setup {:.2} s, render {:.2} s",
+        exr.display(),
+        png.display(),
+        film.width,
+        film.height,
+        film.spp,
+        scene.render.integrator,
+        scene.strands.strand_count(),
+        setup.as_secs_f64(),
+        (start.elapsed() - setup).as_secs_f64()
+    );
+    Ok(())
+}

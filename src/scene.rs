@@ -1,0 +1,330 @@
+//! Scene files: JSON describing the hair, the fiber, the camera, the lights and the render
+//! settings. Every section but `hair` may be left out, and every field has a default (README).
+//! Unknown fields are errors; bad values are errors that name the field.
+
+use crate::camera::Camera;
+use crate::fibers::Fibers;
+use crate::light::{EnvMap, Environment, Lights, Sun};
+use anyhow::{Context, Result, bail, ensure};
+use glam::{DMat4, DVec3, EulerRot};
+use precompute::fiber::FiberParams;
+use precompute::spectrum::Rgb;
+use precompute::strands::{Generator, Strands, read_hair};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    pub hair: HairSpec,
+    #[serde(default)]
+    pub fiber: FiberParams,
+    #[serde(default)]
+    pub camera: CameraSpec,
+    #[serde(default)]
+    pub lights: LightsSpec,
+    #[serde(default)]
+    pub render: RenderSpec,
+}
+
+/// The hair: a .hair file or a generator, then scaled, rotated (XYZ Euler angles in degrees) and
+/// translated, in that order; `radius` replaces every fiber radius (after scaling).
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct HairSpec {
+    pub file: Option<PathBuf>,
+    pub generate: Option<Generator>,
+    #[serde(default = "one")]
+    pub scale: f64,
+    #[serde(default)]
+    pub rotate: [f64; 3],
+    #[serde(default)]
+    pub translate: [f64; 3],
+    pub radius: Option<f64>,
+}
+
+/// A pinhole camera. Without `position` the camera frames the hair's bounding box from the front
+/// (-Y), looking along +Y with +Z up.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(default, deny_unknown_fields)]
+pub struct CameraSpec {
+    pub position: Option<[f64; 3]>,
+    pub look_at: Option<[f64; 3]>,
+    pub up: [f64; 3],
+    /// Vertical field of view in degrees.
+    pub fov: f64,
+    pub width: usize,
+    pub height: usize,
+}
+
+impl Default for CameraSpec {
+    fn default() -> Self {
+        CameraSpec { position: None, look_at: None, up: [0.0, 0.0, 1.0], fov: 30.0, width: 512, height: 512 }
+    }
+}
+
+/// Lights. Without this section the hair sits in a uniform white environment of radiance 1.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct LightsSpec {
+    pub environment: Option<EnvSpec>,
+    pub sun: Option<SunSpec>,
+}
+
+impl Default for LightsSpec {
+    fn default() -> Self {
+        LightsSpec { environment: Some(EnvSpec::default()), sun: None }
+    }
+}
+
+/// An environment: a lat-long map (`file`, .exr or .hdr) or a constant `color`; radiance times
+/// `strength`; the map turned by `rotation` degrees about +Z.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(default, deny_unknown_fields)]
+pub struct EnvSpec {
+    pub file: Option<PathBuf>,
+    pub color: Option<[f64; 3]>,
+    pub strength: f64,
+    pub rotation: f64,
+}
+
+impl Default for EnvSpec {
+    fn default() -> Self {
+        EnvSpec { file: None, color: None, strength: 1.0, rotation: 0.0 }
+    }
+}
+
+/// A distant sun: `direction` toward it, `irradiance` (one value or R,G,B) on a surface facing it,
+/// `angular_diameter` in degrees (0 for a directional light; the real sun is 0.53).
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct SunSpec {
+    pub direction: [f64; 3],
+    pub irradiance: OneOrRgb,
+    #[serde(default = "sun_diameter")]
+    pub angular_diameter: f64,
+}
+
+#[derive(Deserialize, Debug, Clone, Copy)]
+#[serde(untagged)]
+pub enum OneOrRgb {
+    One(f64),
+    Rgb([f64; 3]),
+}
+
+impl OneOrRgb {
+    fn rgb(self) -> [f64; 3] {
+        match self {
+            OneOrRgb::One(v) => [v; 3],
+            OneOrRgb::Rgb(c) => c,
+        }
+    }
+}
+
+#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum IntegratorKind {
+    /// Direct lighting only.
+    Single,
+    /// Full multiple scattering between fibers (the reference).
+    Path,
+}
+
+#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Sampling {
+    /// d'Eon et al. 2013 fiber importance sampling.
+    Importance,
+    /// Uniform sphere sampling of fiber directions (the baseline).
+    Uniform,
+}
+
+#[derive(Deserialize, Debug, Clone)]
+#[serde(default, deny_unknown_fields)]
+pub struct RenderSpec {
+    pub integrator: IntegratorKind,
+    pub spp: u32,
+    pub seed: u64,
+    /// Most fiber vertices on a path (`path` only); Russian roulette ends most paths long before.
+    pub max_depth: u32,
+    pub sampling: Sampling,
+    /// PNG exposure in stops.
+    pub exposure: f64,
+}
+
+impl Default for RenderSpec {
+    fn default() -> Self {
+        RenderSpec {
+            integrator: IntegratorKind::Path,
+            spp: 16,
+            seed: 0,
+            max_depth: 512,
+            sampling: Sampling::Importance,
+            exposure: 0.0,
+        }
+    }
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn sun_diameter() -> f64 {
+    0.53
+}
+
+fn finite3(field: &str, v: [f64; 3]) -> Result<DVec3> {
+    ensure!(v.iter().all(|c| c.is_finite()), "{field} must be three finite numbers, got {v:?}");
+    Ok(DVec3::from_array(v))
+}
+
+fn non_negative_rgb(field: &str, v: [f64; 3]) -> Result<Rgb> {
+    ensure!(v.iter().all(|c| c.is_finite() && *c >= 0.0), "{field} must be finite and >= 0, got {v:?}");
+    Ok(Rgb(v))
+}
+
+/// A scene ready to render.
+pub struct Scene {
+    pub strands: Strands,
+    pub fibers: Fibers,
+    pub fiber: FiberParams,
+    pub camera: Camera,
+    pub lights: Lights,
+    pub render: RenderSpec,
+}
+
+impl SceneFile {
+    /// Reads a scene file; a `.hair` file stands for a scene with that hair and every default.
+    pub fn load(path: &Path) -> Result<SceneFile> {
+        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("hair")) {
+            return Ok(SceneFile {
+                hair: HairSpec {
+                    file: Some(path.to_path_buf()),
+                    generate: None,
+                    scale: 1.0,
+                    rotate: [0.0; 3],
+                    translate: [0.0; 3],
+                    radius: None,
+                },
+                fiber: FiberParams::default(),
+                camera: CameraSpec::default(),
+                lights: LightsSpec::default(),
+                render: RenderSpec::default(),
+            });
+        }
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("{}: cannot read the scene file", path.display()))?;
+        let mut scene: SceneFile =
+            serde_json::from_str(&text).with_context(|| format!("{}: invalid scene", path.display()))?;
+        let dir = path.parent().unwrap_or(Path::new(""));
+        scene.hair.file = scene.hair.file.map(|f| dir.join(f));
+        if let Some(env) = &mut scene.lights.environment {
+            env.file = env.file.take().map(|f| dir.join(f));
+        }
+        Ok(scene)
+    }
+
+    /// Checks every value and builds the scene: loads or generates the hair, builds the BVH,
+    /// loads the environment map and frames the camera.
+    pub fn build(&self) -> Result<Scene> {
+        let r = &self.render;
+        ensure!(r.spp >= 1, "render.spp must be at least 1, got {}", r.spp);
+        ensure!(r.max_depth >= 1, "render.max_depth must be at least 1, got {}", r.max_depth);
+        ensure!(r.exposure.is_finite(), "render.exposure must be finite");
+        self.fiber.validate().context("fiber")?;
+        let strands = self.hair()?;
+        let camera = self.camera(&strands)?;
+        let lights = self.lights()?;
+        let fibers = Fibers::new(&strands);
+        Ok(Scene { strands, fibers, fiber: self.fiber, camera, lights, render: self.render.clone() })
+    }
+
+    fn hair(&self) -> Result<Strands> {
+        let h = &self.hair;
+        let mut strands = match (&h.file, &h.generate) {
+            (Some(file), None) => read_hair(file)?,
+            (None, Some(g)) => g.generate().context("hair.generate")?,
+            _ => bail!("hair needs exactly one of `file` and `generate`"),
+        };
+        ensure!(h.scale.is_finite() && h.scale > 0.0, "hair.scale must be finite and > 0, got {}", h.scale);
+        let rotate = finite3("hair.rotate", h.rotate)?;
+        let translate = finite3("hair.translate", h.translate)?;
+        let m = DMat4::from_translation(translate)
+            * DMat4::from_euler(EulerRot::XYZ, rotate.x.to_radians(), rotate.y.to_radians(), rotate.z.to_radians())
+            * DMat4::from_scale(DVec3::splat(h.scale));
+        for p in &mut strands.points {
+            *p = m.transform_point3(p.as_dvec3()).as_vec3();
+        }
+        for r in &mut strands.radii {
+            *r = (*r as f64 * h.scale) as f32;
+        }
+        if let Some(radius) = h.radius {
+            ensure!(radius.is_finite() && radius > 0.0, "hair.radius must be finite and > 0, got {radius}");
+            strands.radii.fill(radius as f32);
+        }
+        strands.validate().context("hair after its transform")?;
+        Ok(strands)
+    }
+
+    fn camera(&self, strands: &Strands) -> Result<Camera> {
+        let c = &self.camera;
+        ensure!(c.fov > 0.0 && c.fov < 180.0, "camera.fov must be in (0, 180) degrees, got {}", c.fov);
+        ensure!((1..=16384).contains(&c.width), "camera.width must be in 1..=16384, got {}", c.width);
+        ensure!((1..=16384).contains(&c.height), "camera.height must be in 1..=16384, got {}", c.height);
+        match (c.position, c.look_at) {
+            (None, None) => {
+                let (lo, hi) = strands.bounds();
+                Ok(Camera::framing(lo, hi, c.fov, c.width, c.height))
+            }
+            (Some(p), Some(l)) => {
+                let (p, l, up) =
+                    (finite3("camera.position", p)?, finite3("camera.look_at", l)?, finite3("camera.up", c.up)?);
+                ensure!((l - p).length() > 0.0, "camera.look_at must differ from camera.position");
+                ensure!(
+                    (l - p).cross(up).length() > 1e-9 * (l - p).length() * up.length(),
+                    "camera.up must not be parallel to the view direction"
+                );
+                Ok(Camera::new(p, l, up, c.fov, c.width, c.height))
+            }
+            _ => bail!("camera needs both `position` and `look_at`, or neither (to frame the hair)"),
+        }
+    }
+
+    fn lights(&self) -> Result<Lights> {
+        let environment = match &self.lights.environment {
+            None => None,
+            Some(e) => {
+                ensure!(
+                    e.strength.is_finite() && e.strength >= 0.0,
+                    "lights.environment.strength must be finite and >= 0"
+                );
+                ensure!(e.rotation.is_finite(), "lights.environment.rotation must be finite");
+                Some(match (&e.file, e.color) {
+                    (Some(f), None) => Environment::Map(EnvMap::load(f, e.strength, e.rotation)?),
+                    (None, c) => Environment::Constant(
+                        non_negative_rgb("lights.environment.color", c.unwrap_or([1.0; 3]))? * e.strength,
+                    ),
+                    _ => bail!("lights.environment takes `file` or `color`, not both"),
+                })
+            }
+        };
+        let sun = match &self.lights.sun {
+            None => None,
+            Some(s) => {
+                let d = finite3("lights.sun.direction", s.direction)?;
+                ensure!(d.length() > 0.0, "lights.sun.direction must not be zero");
+                ensure!(
+                    s.angular_diameter.is_finite() && (0.0..90.0).contains(&s.angular_diameter),
+                    "lights.sun.angular_diameter must be in [0, 90) degrees, got {}",
+                    s.angular_diameter
+                );
+                Some(Sun {
+                    direction: d.normalize(),
+                    irradiance: non_negative_rgb("lights.sun.irradiance", s.irradiance.rgb())?,
+                    half_angle: 0.5 * s.angular_diameter.to_radians(),
+                })
+            }
+        };
+        Ok(Lights { environment, sun })
+    }
+}

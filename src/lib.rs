@@ -13,6 +13,8 @@ pub mod light;
 pub mod lobe_cmd;
 pub mod output;
 pub mod plot;
+pub mod precompute_cmd;
 pub mod render;
 pub mod render_cmd;
 pub mod scene;
+pub mod tables_chart;

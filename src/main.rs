@@ -1,5 +1,6 @@
 use clap::{Parser, Subcommand};
 use dualhair::lobe_cmd::{self, LobeArgs};
+use dualhair::precompute_cmd::{self, PrecomputeCommand};
 use dualhair::render_cmd::{self, RenderArgs};
 
 /// dualhair: a hair renderer that makes multiple scattering cheap (dual scattering with a
@@ -15,6 +16,9 @@ struct Cli {
 enum Command {
     /// Render a scene to EXR and PNG.
     Render(RenderArgs),
+    /// Precompute and export the dual-scattering tables or the hair-density grid.
+    #[command(subcommand)]
+    Precompute(PrecomputeCommand),
     /// Write a lat-long image of a single fiber's scattering lobe.
     Lobe(LobeArgs),
 }
@@ -23,6 +27,7 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Render(args) => render_cmd::run(args),
+        Command::Precompute(command) => precompute_cmd::run(command),
         Command::Lobe(args) => lobe_cmd::run(args),
     };
     match result {

@@ -239,7 +239,8 @@ impl SceneFile {
         Ok(Scene { strands, fibers, fiber: self.fiber, camera, lights, render: self.render.clone() })
     }
 
-    fn hair(&self) -> Result<Strands> {
+    /// Loads or generates the hair and applies its transform.
+    pub fn hair(&self) -> Result<Strands> {
         let h = &self.hair;
         let mut strands = match (&h.file, &h.generate) {
             (Some(file), None) => read_hair(file)?,

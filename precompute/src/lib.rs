@@ -6,9 +6,11 @@
 //! renderer crate (`dualhair`) builds on it.
 
 pub mod conventions;
+pub mod density;
 pub mod fiber;
 pub mod lobe;
 pub mod quadrature;
 pub mod special;
 pub mod spectrum;
 pub mod strands;
+pub mod tables;

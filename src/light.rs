@@ -6,6 +6,7 @@
 
 use anyhow::{Context, Result, bail};
 use glam::DVec3;
+use precompute::conventions::{SPHERE, uniform_sphere};
 use precompute::spectrum::Rgb;
 use std::f64::consts::{PI, TAU};
 use std::path::Path;
@@ -60,13 +61,6 @@ fn sample_cdf(cdf: &[f64], u: f64) -> (usize, f64) {
     let i = cdf.partition_point(|&c| c <= u).clamp(1, cdf.len() - 1) - 1;
     let width = cdf[i + 1] - cdf[i];
     (i, if width > 0.0 { ((u - cdf[i]) / width).clamp(0.0, 1.0 - f64::EPSILON) } else { 0.5 })
-}
-
-fn uniform_sphere(u: [f64; 2]) -> DVec3 {
-    let z = 1.0 - 2.0 * u[0];
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (TAU * u[1]).sin_cos();
-    DVec3::new(r * c, r * s, z)
 }
 
 impl EnvMap {
@@ -201,7 +195,7 @@ impl Environment {
 
     pub fn pdf(&self, d: DVec3) -> f64 {
         match self {
-            Environment::Constant(_) => 1.0 / (4.0 * PI),
+            Environment::Constant(_) => 1.0 / SPHERE,
             Environment::Map(m) => m.pdf(d),
         }
     }
@@ -209,7 +203,7 @@ impl Environment {
     pub fn sample(&self, u: [f64; 2]) -> Option<LightSample> {
         match self {
             Environment::Constant(c) => {
-                Some(LightSample { wi: uniform_sphere(u), radiance: *c, pdf: 1.0 / (4.0 * PI), delta: false })
+                Some(LightSample { wi: uniform_sphere(u), radiance: *c, pdf: 1.0 / SPHERE, delta: false })
             }
             Environment::Map(m) => m.sample(u),
         }

@@ -2,6 +2,7 @@
 
 use crate::film::Film;
 use crate::integrator::PathTracer;
+use crate::output::ImageFormat;
 use crate::render::render;
 use crate::scene::{IntegratorKind, Sampling, Scene, SceneFile};
 use anyhow::{Context, Result, bail};
@@ -49,11 +50,10 @@ pub struct RenderArgs {
 /// The EXR and PNG paths for an output argument.
 fn output_paths(output: Option<&Path>) -> Result<(PathBuf, PathBuf)> {
     let out = output.unwrap_or(Path::new("render.exr"));
-    match out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("exr") => Ok((out.to_path_buf(), out.with_extension("png"))),
-        Some("png") => Ok((out.with_extension("exr"), out.to_path_buf())),
-        _ => bail!("{}: unsupported output type (use .exr or .png)", out.display()),
-    }
+    Ok(match ImageFormat::from_path(out)? {
+        ImageFormat::Exr => (out.to_path_buf(), out.with_extension("png")),
+        ImageFormat::Png => (out.with_extension("exr"), out.to_path_buf()),
+    })
 }
 
 /// Loads the scene and applies the command-line overrides.

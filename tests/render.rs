@@ -71,7 +71,7 @@ fn importance_and_uniform_sampling_agree() {
     // variance stays affordable: at beta 0.3 the uniform estimate needs ~10x the samples to judge 1%.
     // A constant environment: a sun's or a bright HDRI spot's binary shadow-ray visibility adds
     // noise that has nothing to do with the fiber sampler under test.
-    for (integrator, beta, spp) in [(IntegratorKind::Single, 0.6, 512), (IntegratorKind::Path, 0.6, 512)] {
+    for (integrator, beta, spp) in [(IntegratorKind::Single, 0.6, 512), (IntegratorKind::Path, 0.6, 1024)] {
         let mut imp = scene_from(BROWN_CURLS);
         imp.lights =
             LightsSpec { environment: Some(EnvSpec { color: Some([1.0, 0.9, 0.8]), ..Default::default() }), sun: None };

@@ -20,6 +20,15 @@ pub fn direction(theta: f64, phi: f64) -> DVec3 {
     DVec3::new(sin_t, cos_t * cos_p, cos_t * sin_p)
 }
 
+/// A direction uniformly distributed over the sphere (density 1 / [`SPHERE`]) from two uniform
+/// numbers in [0, 1): the x component is uniform in [-1, 1] (Archimedes), the azimuth about x too.
+pub fn uniform_sphere(u: [f64; 2]) -> DVec3 {
+    let x = 1.0 - 2.0 * u[0];
+    let r = (1.0 - x * x).max(0.0).sqrt();
+    let (s, c) = (TAU * u[1]).sin_cos();
+    DVec3::new(x, r * c, r * s)
+}
+
 /// `(sin theta, cos theta)` of a unit direction, robust to `|x|` rounding past 1.
 pub fn sin_cos_theta(w: DVec3) -> (f64, f64) {
     let s = w.x.clamp(-1.0, 1.0);

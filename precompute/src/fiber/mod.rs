@@ -62,8 +62,7 @@ impl<M: FiberModel> FiberModel for UniformSampled<M> {
     }
 
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<FiberSample> {
-        let sin_t = 1.0 - 2.0 * u[0];
-        let wi = crate::conventions::direction(sin_t.asin(), std::f64::consts::TAU * u[1]);
+        let wi = crate::conventions::uniform_sphere([u[0], u[1]]);
         Some(FiberSample { wi, value: self.0.eval(wo, wi, h), pdf: 1.0 / SPHERE })
     }
 

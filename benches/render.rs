@@ -2,10 +2,11 @@
 //! backlit swatch scene. `cargo bench --bench render -- [HAIR_FILE]`; without a file it uses a
 //! generated scalp of 30,000 strands. All threads of the machine are used.
 
+use dualhair::cache::Cache;
 use dualhair::camera::Camera;
 use dualhair::fibers::Fibers;
 use dualhair::render_cmd::render_scene;
-use dualhair::scene::SceneFile;
+use dualhair::scene::{IntegratorKind, SceneFile};
 use glam::Vec3;
 use precompute::strands::{Generator, Scalp, read_hair};
 use rand::{Rng, SeedableRng};
@@ -80,12 +81,18 @@ fn main() {
     });
 
     let root = env!("CARGO_MANIFEST_DIR");
+    let cache = Cache::at(format!("{}/dualhair-cache", env!("CARGO_TARGET_TMPDIR")));
     let mut swatch = SceneFile::load(Path::new(&format!("{root}/scenes/backlit_swatch.json"))).unwrap();
     swatch.render.spp = 16;
-    let scene = swatch.build().unwrap();
-    let paths = scene.camera.width * scene.camera.height * 16;
-    rate("path tracing, backlit swatch (camera paths)", paths, || {
-        let film = render_scene(&scene, false).unwrap();
-        film.alpha.iter().filter(|&&a| a > 0.0).count() * 16
-    });
+    for integrator in [IntegratorKind::Path, IntegratorKind::Dual] {
+        swatch.render.integrator = integrator;
+        let scene = swatch.build().unwrap();
+        // Tables and grid first, so that only rendering is timed.
+        render_scene(&scene, &cache, false).unwrap();
+        let paths = scene.camera.width * scene.camera.height * 16;
+        rate(&format!("{integrator:?}, backlit swatch (camera samples)"), paths, || {
+            let film = render_scene(&scene, &cache, false).unwrap();
+            film.alpha.iter().filter(|&&a| a > 0.0).count() * 16
+        });
+    }
 }

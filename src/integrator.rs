@@ -13,37 +13,42 @@ use precompute::fiber::FiberModel;
 use precompute::spectrum::Rgb;
 use rand::Rng;
 
+/// An estimator of the radiance arriving along camera rays.
+pub trait Integrator: Sync {
+    fn radiance(&self, origin: Vec3, dir: DVec3, rng: &mut impl Rng) -> CameraSample;
+}
+
 /// Local fiber frame at a hit: x along the tangent (conventions module).
-struct Frame {
+pub(crate) struct Frame {
     u: DVec3,
     v: DVec3,
     w: DVec3,
 }
 
 impl Frame {
-    fn new(tangent: Vec3) -> Frame {
+    pub(crate) fn new(tangent: Vec3) -> Frame {
         let u = tangent.as_dvec3().normalize();
         let (v, w) = u.any_orthonormal_pair();
         Frame { u, v, w }
     }
 
-    fn to_local(&self, d: DVec3) -> DVec3 {
+    pub(crate) fn to_local(&self, d: DVec3) -> DVec3 {
         DVec3::new(d.dot(self.u), d.dot(self.v), d.dot(self.w))
     }
 
-    fn to_world(&self, d: DVec3) -> DVec3 {
+    pub(crate) fn to_world(&self, d: DVec3) -> DVec3 {
         self.u * d.x + self.v * d.y + self.w * d.z
     }
 }
 
-fn power_heuristic(a: f64, b: f64) -> f64 {
+pub(crate) fn power_heuristic(a: f64, b: f64) -> f64 {
     if a <= 0.0 { 0.0 } else { a * a / (a * a + b * b) }
 }
 
 /// Where new rays leave a hit: just inside the fiber, which the BVH then ignores (rays only enter
 /// fibers from outside), so a ray leaving through its own fiber cannot hit it again however the
 /// hit point was rounded.
-fn spawn_point(hit: &Hit) -> Vec3 {
+pub(crate) fn spawn_point(hit: &Hit) -> Vec3 {
     hit.point - hit.normal * (0.01 * hit.radius)
 }
 
@@ -72,29 +77,37 @@ impl PathTracer<'_> {
         let w = if s.delta { 1.0 } else { power_heuristic(s.pdf, self.fiber.pdf(wo, wi, h)) };
         f * s.radiance * (w / s.pdf)
     }
+}
 
-    /// Radiance of the lights seen along an escaped fiber-sampled direction, MIS-weighted.
-    fn escaped(&self, d: DVec3, fiber_pdf: f64) -> Rgb {
-        let mut l = Rgb::ZERO;
-        if let Some(env) = &self.lights.environment {
-            l += env.radiance(d) * power_heuristic(fiber_pdf, env.pdf(d));
-        }
-        if let Some(sun) = &self.lights.sun {
-            l += sun.radiance(d) * power_heuristic(fiber_pdf, sun.pdf(d));
-        }
-        l
+/// Radiance of the lights seen along a direction drawn by fiber sampling with density
+/// `fiber_pdf`, each MIS-weighted against its own light sampling.
+pub(crate) fn seen_lights(lights: &Lights, d: DVec3, fiber_pdf: f64) -> Rgb {
+    let mut l = Rgb::ZERO;
+    if let Some(env) = &lights.environment {
+        l += env.radiance(d) * power_heuristic(fiber_pdf, env.pdf(d));
     }
+    if let Some(sun) = &lights.sun {
+        l += sun.radiance(d) * power_heuristic(fiber_pdf, sun.pdf(d));
+    }
+    l
+}
 
-    pub fn radiance(&self, origin: Vec3, dir: DVec3, rng: &mut impl Rng) -> CameraSample {
+/// What a camera ray that misses the hair sees.
+pub(crate) fn background(lights: &Lights, dir: DVec3) -> CameraSample {
+    let mut radiance = Rgb::ZERO;
+    if let Some(env) = &lights.environment {
+        radiance += env.radiance(dir);
+    }
+    if let Some(sun) = &lights.sun {
+        radiance += sun.radiance(dir);
+    }
+    CameraSample { radiance, hit_hair: false }
+}
+
+impl Integrator for PathTracer<'_> {
+    fn radiance(&self, origin: Vec3, dir: DVec3, rng: &mut impl Rng) -> CameraSample {
         let Some(mut hit) = self.fibers.closest_hit(origin, dir.as_vec3(), f32::INFINITY) else {
-            let mut background = Rgb::ZERO;
-            if let Some(env) = &self.lights.environment {
-                background += env.radiance(dir);
-            }
-            if let Some(sun) = &self.lights.sun {
-                background += sun.radiance(dir);
-            }
-            return CameraSample { radiance: background, hit_hair: false };
+            return background(self.lights, dir);
         };
         let (mut radiance, mut throughput, mut dir) = (Rgb::ZERO, Rgb::ONE, dir);
         for depth in 1..=self.max_depth {
@@ -119,7 +132,7 @@ impl PathTracer<'_> {
             dir = frame.to_world(s.wi).normalize();
             match self.fibers.closest_hit(from, dir.as_vec3(), f32::INFINITY) {
                 None => {
-                    radiance += throughput * self.escaped(dir, s.pdf);
+                    radiance += throughput * seen_lights(self.lights, dir, s.pdf);
                     break;
                 }
                 Some(next) => hit = next,

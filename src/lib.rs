@@ -4,7 +4,10 @@
 //! `dualhair` binary. The fiber models and everything precomputed from them live in the
 //! `precompute` crate.
 
+pub mod cache;
 pub mod camera;
+pub mod compare;
+pub mod dual;
 pub mod fiber_args;
 pub mod fibers;
 pub mod film;

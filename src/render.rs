@@ -6,7 +6,7 @@
 
 use crate::camera::Camera;
 use crate::film::{Film, PixelSums};
-use crate::integrator::PathTracer;
+use crate::integrator::Integrator;
 use indicatif::{ProgressBar, ProgressStyle};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -20,7 +20,7 @@ fn mix(mut z: u64) -> u64 {
 }
 
 /// Renders `spp` box-filtered samples per pixel; `progress` shows a bar with ETA on a terminal.
-pub fn render(camera: &Camera, tracer: &PathTracer, spp: u32, seed: u64, progress: bool) -> Film {
+pub fn render(camera: &Camera, tracer: &impl Integrator, spp: u32, seed: u64, progress: bool) -> Film {
     let (w, h) = (camera.width, camera.height);
     let bar = if progress { ProgressBar::new(h as u64) } else { ProgressBar::hidden() };
     bar.set_style(

@@ -1,11 +1,14 @@
 //! `dualhair render`: renders a scene file to EXR and PNG.
 
+use crate::cache::Cache;
+use crate::dual::DualScattering;
 use crate::film::Film;
 use crate::integrator::PathTracer;
 use crate::output::ImageFormat;
 use crate::render::render;
 use crate::scene::{IntegratorKind, Sampling, Scene, SceneFile};
 use anyhow::{Context, Result, bail};
+use precompute::density::read_vdb;
 use precompute::fiber::{Chiang, FiberModel, UniformSampled};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -22,18 +25,28 @@ pub struct RenderArgs {
     /// Samples per pixel.
     #[arg(long)]
     pub spp: Option<u32>,
+    /// Integrator (default: the scene's, else dual).
     #[arg(long, value_enum)]
     pub integrator: Option<IntegratorKind>,
-    /// Fiber direction sampling.
+    /// Direction sampling, combined with light sampling by MIS (default: importance).
     #[arg(long, value_enum)]
     pub sampling: Option<Sampling>,
+    /// Random seed; the same seed gives the same image.
     #[arg(long)]
     pub seed: Option<u64>,
     /// Most fiber vertices on a path (path integrator).
     #[arg(long)]
     pub max_depth: Option<u32>,
+    /// Forward scattering density factor d_f in [0, 1] (dual integrator).
+    #[arg(long)]
+    pub d_f: Option<f64>,
+    /// Backscattering density factor d_b in [0, 1] (dual integrator).
+    #[arg(long)]
+    pub d_b: Option<f64>,
+    /// Image width in pixels.
     #[arg(long)]
     pub width: Option<usize>,
+    /// Image height in pixels.
     #[arg(long)]
     pub height: Option<usize>,
     /// Worker threads (default: all cores). The image does not depend on it.
@@ -72,25 +85,49 @@ pub fn scene_file(args: &RenderArgs) -> Result<SceneFile> {
     r.sampling = args.sampling.unwrap_or(r.sampling);
     r.seed = args.seed.unwrap_or(r.seed);
     r.max_depth = args.max_depth.unwrap_or(r.max_depth);
+    file.dual.d_f = args.d_f.unwrap_or(file.dual.d_f);
+    file.dual.d_b = args.d_b.unwrap_or(file.dual.d_b);
     file.camera.width = args.width.unwrap_or(file.camera.width);
     file.camera.height = args.height.unwrap_or(file.camera.height);
     Ok(file)
 }
 
-/// Renders a built scene with its own settings, on the current rayon pool.
-pub fn render_scene(scene: &Scene, progress: bool) -> Result<Film> {
+/// Renders a built scene with its own settings, on the current rayon pool. The dual integrator's
+/// tables and density grid come from `cache` (computed there when missing).
+pub fn render_scene(scene: &Scene, cache: &Cache, progress: bool) -> Result<Film> {
     let chiang = Chiang::new(&scene.fiber)?;
+    let (spp, seed) = (scene.render.spp, scene.render.seed);
+    let max_depth = match scene.render.integrator {
+        IntegratorKind::Single => 1,
+        IntegratorKind::Path => scene.render.max_depth,
+        IntegratorKind::Dual => {
+            let d = &scene.dual;
+            let tables = cache.tables(&scene.fiber, d.d_b, progress)?;
+            let grid = match &d.density_grid {
+                Some(path) => read_vdb(path, "density")?,
+                None => cache.density(&scene.strands, d.voxel_size)?,
+            };
+            let dual = DualScattering {
+                fibers: &scene.fibers,
+                fiber: &chiang,
+                lights: &scene.lights,
+                tables: &tables,
+                grid: &grid,
+                d_f: d.d_f,
+                d_b: d.d_b,
+                sampling: scene.render.sampling,
+            };
+            return Ok(render(&scene.camera, &dual, spp, seed, progress));
+        }
+    };
     let uniform = UniformSampled(chiang.clone());
     let fiber: &dyn FiberModel = match scene.render.sampling {
         Sampling::Importance => &chiang,
         Sampling::Uniform => &uniform,
-    };
-    let max_depth = match scene.render.integrator {
-        IntegratorKind::Single => 1,
-        IntegratorKind::Path => scene.render.max_depth,
+        Sampling::Light => bail!("light sampling alone needs the dual integrator"),
     };
     let tracer = PathTracer { fibers: &scene.fibers, fiber, lights: &scene.lights, max_depth };
-    Ok(render(&scene.camera, &tracer, scene.render.spp, scene.render.seed, progress))
+    Ok(render(&scene.camera, &tracer, spp, seed, progress))
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
@@ -102,7 +139,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         .num_threads(args.threads.unwrap_or(0))
         .build()
         .context("cannot start the worker threads")?;
-    let film = pool.install(|| render_scene(&scene, !args.quiet))?;
+    let film = pool.install(|| render_scene(&scene, &Cache::default_location(), !args.quiet))?;
     film.write_exr(&exr, args.aovs)?;
     film.write_png(&png, scene.render.exposure)?;
     println!(

@@ -25,6 +25,8 @@ pub struct SceneFile {
     pub lights: LightsSpec,
     #[serde(default)]
     pub render: RenderSpec,
+    #[serde(default)]
+    pub dual: DualSpec,
 }
 
 /// The hair: a .hair file or a generator, then scaled, rotated (XYZ Euler angles in degrees) and
@@ -128,15 +130,41 @@ pub enum IntegratorKind {
     Single,
     /// Full multiple scattering between fibers (the reference).
     Path,
+    /// Dual-scattering approximation of multiple scattering (Zinke et al. 2008).
+    Dual,
 }
 
 #[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum Sampling {
-    /// d'Eon et al. 2013 fiber importance sampling.
+    /// d'Eon et al. 2013 fiber importance sampling (for dual, a mixture covering all its terms).
     Importance,
-    /// Uniform sphere sampling of fiber directions (the baseline).
+    /// Uniform sphere sampling (the baseline).
     Uniform,
+    /// Light sampling alone (`dual` only).
+    Light,
+}
+
+/// The dual-scattering integrator's parameters (Zinke et al. 2008; design section 4).
+#[derive(Deserialize, Debug, Clone)]
+#[serde(default, deny_unknown_fields)]
+pub struct DualSpec {
+    /// Forward scattering density factor d_f in [0, 1].
+    pub d_f: f64,
+    /// Backscattering density factor d_b in [0, 1].
+    pub d_b: f64,
+    /// Voxel size of the density grid in scene units (default: chosen from the hair).
+    pub voxel_size: Option<f64>,
+    /// A density grid made elsewhere: an OpenVDB file with a float grid `density` of hair length
+    /// per unit volume and `fiber_width` metadata, in the hair's final (world) frame. Default:
+    /// voxelize the hair.
+    pub density_grid: Option<PathBuf>,
+}
+
+impl Default for DualSpec {
+    fn default() -> Self {
+        DualSpec { d_f: 0.7, d_b: 0.7, voxel_size: None, density_grid: None }
+    }
 }
 
 #[derive(Deserialize, Debug, Clone)]
@@ -155,7 +183,7 @@ pub struct RenderSpec {
 impl Default for RenderSpec {
     fn default() -> Self {
         RenderSpec {
-            integrator: IntegratorKind::Path,
+            integrator: IntegratorKind::Dual,
             spp: 16,
             seed: 0,
             max_depth: 512,
@@ -191,6 +219,7 @@ pub struct Scene {
     pub camera: Camera,
     pub lights: Lights,
     pub render: RenderSpec,
+    pub dual: DualSpec,
 }
 
 impl SceneFile {
@@ -210,6 +239,7 @@ impl SceneFile {
                 camera: CameraSpec::default(),
                 lights: LightsSpec::default(),
                 render: RenderSpec::default(),
+                dual: DualSpec::default(),
             });
         }
         let text =
@@ -221,6 +251,7 @@ impl SceneFile {
         if let Some(env) = &mut scene.lights.environment {
             env.file = env.file.take().map(|f| dir.join(f));
         }
+        scene.dual.density_grid = scene.dual.density_grid.map(|f| dir.join(f));
         Ok(scene)
     }
 
@@ -232,11 +263,29 @@ impl SceneFile {
         ensure!(r.max_depth >= 1, "render.max_depth must be at least 1, got {}", r.max_depth);
         ensure!(r.exposure.is_finite(), "render.exposure must be finite");
         self.fiber.validate().context("fiber")?;
+        if r.sampling == Sampling::Light && r.integrator != IntegratorKind::Dual {
+            bail!("render.sampling `light` needs the dual integrator (path tracing must sample fiber directions)");
+        }
+        let d = &self.dual;
+        for (name, v) in [("dual.d_f", d.d_f), ("dual.d_b", d.d_b)] {
+            ensure!((0.0..=1.0).contains(&v), "{name} must be in [0, 1], got {v}");
+        }
+        if let Some(s) = d.voxel_size {
+            ensure!(s.is_finite() && s > 0.0, "dual.voxel_size must be finite and > 0, got {s}");
+        }
         let strands = self.hair()?;
         let camera = self.camera(&strands)?;
         let lights = self.lights()?;
         let fibers = Fibers::new(&strands);
-        Ok(Scene { strands, fibers, fiber: self.fiber, camera, lights, render: self.render.clone() })
+        Ok(Scene {
+            strands,
+            fibers,
+            fiber: self.fiber,
+            camera,
+            lights,
+            render: self.render.clone(),
+            dual: self.dual.clone(),
+        })
     }
 
     /// Loads or generates the hair and applies its transform.

@@ -1,6 +1,7 @@
 //! Renderer-level checks: energy conservation (furnace), single = path at depth 1, importance and
 //! uniform fiber sampling converging to the same image, thread-count independence, bad scenes.
 
+use dualhair::cache::Cache;
 use dualhair::film::Film;
 use dualhair::render_cmd::render_scene;
 use dualhair::scene::{EnvSpec, IntegratorKind, LightsSpec, Sampling, SceneFile};
@@ -16,8 +17,13 @@ fn scene_from(json: &str) -> SceneFile {
     SceneFile::load(&path).unwrap()
 }
 
+/// The dual integrator's tables and grids, shared by every test and kept between runs.
+fn cache_dir() -> String {
+    format!("{}/dualhair-cache", env!("CARGO_TARGET_TMPDIR"))
+}
+
 fn render(file: &SceneFile) -> Film {
-    render_scene(&file.build().unwrap(), false).unwrap()
+    render_scene(&file.build().unwrap(), &Cache::at(cache_dir()), false).unwrap()
 }
 
 /// Mean luminance over pixels that hair fully covers, and its standard error.
@@ -57,11 +63,13 @@ fn single_is_path_at_depth_one() {
     let mut single = scene_from(BROWN_CURLS);
     single.render.integrator = IntegratorKind::Single;
     let mut path = scene_from(BROWN_CURLS);
+    path.render.integrator = IntegratorKind::Path;
     path.render.max_depth = 1;
     let (a, b) = (render(&single), render(&path));
     assert!(a.mean == b.mean && a.alpha == b.alpha, "single and path at depth 1 must be the same estimator");
     // And multiple scattering adds light.
-    let full = render(&scene_from(BROWN_CURLS));
+    path.render.max_depth = 512;
+    let full = render(&path);
     assert!(hair_mean(&full).0 > 1.05 * hair_mean(&a).0);
 }
 
@@ -97,6 +105,7 @@ fn output_is_bit_identical_for_any_thread_count() {
     let run = |threads: &str| {
         let out = dir.path().join(format!("t{threads}.exr"));
         let status = Command::new(env!("CARGO_BIN_EXE_dualhair"))
+            .env("DUALHAIR_CACHE", cache_dir())
             .args(["render", &format!("{ROOT}/scenes/furnace.json"), "--spp", "4", "--width", "40", "--height", "30"])
             .args(["--threads", threads, "--seed", "7", "--aovs", "-q", "-o", out.to_str().unwrap()])
             .status()
@@ -142,6 +151,7 @@ fn render_command_writes_exr_and_png_or_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.png");
     let ok = Command::new(env!("CARGO_BIN_EXE_dualhair"))
+        .env("DUALHAIR_CACHE", cache_dir())
         .args([
             "render",
             &format!("{ROOT}/scenes/default.json"),
@@ -162,6 +172,7 @@ fn render_command_writes_exr_and_png_or_nothing() {
     let bad = dir.path().join("bad");
     std::fs::create_dir(&bad).unwrap();
     let fail = Command::new(env!("CARGO_BIN_EXE_dualhair"))
+        .env("DUALHAIR_CACHE", cache_dir())
         .args(["render", &format!("{ROOT}/scenes/default.json"), "--spp", "0", "-q", "-o"])
         .arg(bad.join("y.exr"))
         .output()

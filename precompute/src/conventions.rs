@@ -29,6 +29,19 @@ pub fn uniform_sphere(u: [f64; 2]) -> DVec3 {
     DVec3::new(x, r * c, r * s)
 }
 
+/// Picks index k with probability `w[k]` (weights summing to 1) from u in [0, 1), and returns u
+/// rescaled to [0, 1) within the picked share so that the number can be used again.
+pub fn pick(w: &[f64], u: f64) -> (usize, f64) {
+    let mut rest = u;
+    let mut k = 0;
+    while k + 1 < w.len() && rest >= w[k] {
+        rest -= w[k];
+        k += 1;
+    }
+    let rescaled = rest / w[k];
+    (k, if rescaled.is_finite() { rescaled.clamp(0.0, 1.0 - f64::EPSILON) } else { 0.5 })
+}
+
 /// `(sin theta, cos theta)` of a unit direction, robust to `|x|` rounding past 1.
 pub fn sin_cos_theta(w: DVec3) -> (f64, f64) {
     let s = w.x.clamp(-1.0, 1.0);

@@ -45,7 +45,7 @@ use crate::lobe::h_rule;
 use crate::quadrature::composite;
 use crate::spectrum::Rgb;
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::io::Write;
 
@@ -92,6 +92,11 @@ impl Quantity {
     }
 }
 
+/// A tables JSON document that does not follow the schema of [`Tables::to_json`].
+#[derive(Debug, thiserror::Error)]
+#[error("not a dual-scattering tables document: {0}")]
+pub struct TablesFormatError(String);
+
 /// How finely the tables are computed.
 #[derive(Clone, Debug)]
 pub struct TableSettings {
@@ -107,7 +112,8 @@ pub struct TableSettings {
 }
 
 /// The resolution a table was computed at, recorded in its exports.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Resolution {
     pub theta_count: usize,
     pub h_nodes: usize,
@@ -331,11 +337,63 @@ impl Tables {
     /// Quantity `q` at light inclination `theta` (radians), linearly interpolated between entries
     /// and clamped to the first and last.
     pub fn lookup(&self, q: Quantity, theta: f64) -> Rgb {
-        let (t, v) = (&self.theta, self.values(q));
-        let last = t.len() - 1;
-        let k = t.partition_point(|&x| x <= theta).clamp(1, last);
-        let w = ((theta - t[k - 1]) / (t[k] - t[k - 1])).clamp(0.0, 1.0);
+        let (k, w) = self.bracket(theta);
+        let v = self.values(q);
         v[k - 1] * (1.0 - w) + v[k] * w
+    }
+
+    /// The entry k >= 1 with theta[k - 1] <= theta < theta[k] (clamped to the ends) and the
+    /// interpolation weight of entry k.
+    fn bracket(&self, theta: f64) -> (usize, f64) {
+        let t = &self.theta;
+        let k = t.partition_point(|&x| x <= theta).clamp(1, t.len() - 1);
+        (k, ((theta - t[k - 1]) / (t[k] - t[k - 1])).clamp(0.0, 1.0))
+    }
+
+    /// Every quantity at light inclination `theta`, indexed by `Quantity as usize` (one search
+    /// for all nine; see [`Tables::lookup`]).
+    pub fn at(&self, theta: f64) -> [Rgb; 9] {
+        let (k, w) = self.bracket(theta);
+        std::array::from_fn(|q| self.values[q][k - 1] * (1.0 - w) + self.values[q][k] * w)
+    }
+
+    /// Reads the JSON export back, checking it: every key present, every array as long as
+    /// `theta`, every number finite, `theta` increasing within [-pi/2, pi/2].
+    pub fn from_json(doc: &serde_json::Value) -> Result<Tables, TablesFormatError> {
+        let bad = |m: String| TablesFormatError(m);
+        let numbers = |v: &serde_json::Value, what: &str| -> Result<Vec<f64>, TablesFormatError> {
+            let a = v.as_array().ok_or_else(|| bad(format!("`{what}` is not an array")))?;
+            a.iter()
+                .map(|x| x.as_f64().filter(|x| x.is_finite()))
+                .collect::<Option<Vec<f64>>>()
+                .ok_or_else(|| bad(format!("`{what}` holds a value that is not a finite number")))
+        };
+        let field = |k: &str| doc.get(k).ok_or_else(|| bad(format!("missing `{k}`")));
+        let theta = numbers(field("theta")?, "theta")?;
+        if theta.len() < 2 || theta.windows(2).any(|w| w[0] >= w[1]) || theta.iter().any(|t| t.abs() > FRAC_PI_2 + 1e-9)
+        {
+            return Err(bad("`theta` must be at least 2 increasing angles within [-pi/2, pi/2]".into()));
+        }
+        let mut values: [Vec<Rgb>; 9] = std::array::from_fn(|_| vec![Rgb::ZERO; theta.len()]);
+        for q in Quantity::ALL {
+            let entry = field(q.key())?;
+            for (c, name) in ["r", "g", "b"].into_iter().enumerate() {
+                let what = format!("{}.{name}", q.key());
+                let v = numbers(entry.get(name).ok_or_else(|| bad(format!("missing `{what}`")))?, &what)?;
+                if v.len() != theta.len() {
+                    return Err(bad(format!("`{what}` has {} entries, `theta` {}", v.len(), theta.len())));
+                }
+                for (k, x) in v.into_iter().enumerate() {
+                    values[q as usize][k].0[c] = x;
+                }
+            }
+        }
+        let d_b =
+            field("d_b")?.as_f64().filter(|d| d.is_finite()).ok_or_else(|| bad("`d_b` is not a number".into()))?;
+        let fiber = serde_json::from_value(field("fiber")?.clone()).map_err(|e| bad(format!("`fiber`: {e}")))?;
+        let resolution =
+            serde_json::from_value(field("resolution")?.clone()).map_err(|e| bad(format!("`resolution`: {e}")))?;
+        Ok(Tables { theta, values, d_b, fiber, resolution })
     }
 
     /// The JSON export described in the module documentation.

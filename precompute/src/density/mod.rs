@@ -200,7 +200,17 @@ impl DensityGrid {
         let (a, b) = (origin + t0 * dir, origin + t1 * dir);
         let len = t1 - t0;
         let mut integral = 0.0;
-        traverse(a, b, self.voxel_size, |v, s0, s1| integral += self.voxel(v) as f64 * (s1 - s0) * len);
+        // Consecutive voxels mostly share a brick: look each brick up once per visit.
+        let mut brick: ([i32; 3], Option<&[f32; BRICK_VOXELS]>) = ([i32::MIN; 3], None);
+        traverse(a, b, self.voxel_size, |v, s0, s1| {
+            let (key, i) = brick_of(v);
+            if key != brick.0 {
+                brick = (key, self.bricks.get(&key).map(|d| &**d));
+            }
+            if let Some(d) = brick.1 {
+                integral += d[i] as f64 * (s1 - s0) * len;
+            }
+        });
         integral * self.fiber_width
     }
 }

@@ -2,7 +2,7 @@
 //! (seed 002 section 1.3.3) and its exact sampler.
 
 use crate::conventions::wrap_angle;
-use std::f64::consts::PI;
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 /// Logistic scale `s` from the user roughness `beta_n` in [0, 1] (seed 002 section 1.3.3):
 /// s = sqrt(pi/8) (0.265 beta + 1.194 beta^2 + 5.372 beta^22).
@@ -47,6 +47,25 @@ impl TrimmedLogistic {
         let x = -self.s * (1.0 / (u * self.mass + self.cdf_lo) - 1.0).ln();
         // u -> 0 gives -inf and u -> 1 can round past pi; both belong at the interval's ends.
         if x.is_nan() { 0.0 } else { x.clamp(-PI, PI) }
+    }
+
+    /// CDF at x in [-pi, pi].
+    fn cdf(&self, x: f64) -> f64 {
+        ((logistic_cdf(x, self.s) - self.cdf_lo) / self.mass).clamp(0.0, 1.0)
+    }
+
+    /// Probability of the circular interval [c - pi/2, c + pi/2] for c in [-pi, pi], the parts
+    /// past +-pi wrapped around (the distribution lives on the circle).
+    pub fn half_circle_mass(&self, c: f64) -> f64 {
+        let (a, b) = (c - FRAC_PI_2, c + FRAC_PI_2);
+        let mut m = self.cdf(b.min(PI)) - self.cdf(a.max(-PI));
+        if b > PI {
+            m += self.cdf(b - TAU);
+        }
+        if a < -PI {
+            m += 1.0 - self.cdf(a + TAU);
+        }
+        m.clamp(0.0, 1.0)
     }
 
     /// N_p(phi) for lobe p: the density of the azimuth offset from Phi(p, h), in 1/radian.

@@ -14,11 +14,11 @@
 use super::attenuation::{P_MAX, ap};
 use super::azimuthal::{TrimmedLogistic, phi_p, scale_from_beta_n};
 use super::longitudinal::{Longitudinal, variance_from_beta_m};
-use super::{FiberModel, FiberParams, FiberSample, ParamError};
-use crate::conventions::{phi, sin_cos_theta};
+use super::{FiberModel, FiberParams, FiberSample, ParamError, SpreadScattering};
+use crate::conventions::{phi, pick, sin_cos_theta, wrap_angle};
 use crate::spectrum::Rgb;
 use glam::DVec3;
-use std::f64::consts::{FRAC_1_PI, TAU};
+use std::f64::consts::{FRAC_1_PI, PI, TAU};
 
 /// Chiang et al. 2016 fiber with precomputed per-material constants.
 #[derive(Clone, Debug)]
@@ -96,6 +96,30 @@ impl Chiang {
             self.m[p].eval(cos_i, sin_i, cos_o, sin_o) * n
         })
     }
+
+    /// Each lobe's N_p averaged over the half circle of azimuths within pi/2 of wi's
+    /// ([`SpreadScattering`]); each integrates to 1 over the circle.
+    fn half_circle_averages(&self, inc: &Incidence, wi: DVec3) -> [f64; P_MAX + 1] {
+        let dphi = phi(wi) - inc.phi_o;
+        std::array::from_fn(|p| {
+            if p < P_MAX {
+                let c = wrap_angle(dphi - phi_p(p, inc.gamma_o, inc.gamma_t));
+                self.n.half_circle_mass(c) * FRAC_1_PI
+            } else {
+                0.5 * FRAC_1_PI
+            }
+        })
+    }
+
+    /// Lobe densities of [`SpreadScattering::pdf_spread`] at wi.
+    fn spread_densities(&self, inc: &Incidence, wi: DVec3, spread: f64) -> [f64; P_MAX + 1] {
+        let (sin_i, cos_i) = sin_cos_theta(wi);
+        let n = self.half_circle_averages(inc, wi);
+        std::array::from_fn(|p| {
+            let (sin_o, cos_o) = self.tilted(inc, p);
+            self.m[p].widened(spread).eval(cos_i, sin_i, cos_o, sin_o) * n[p]
+        })
+    }
 }
 
 /// Lobe-selection probabilities: A_p by luminance, normalized (seed 002 section 1.4.2).
@@ -115,12 +139,7 @@ impl FiberModel for Chiang {
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<FiberSample> {
         let inc = self.incidence(wo, h);
         let w = lobe_weights(&inc.ap);
-        let mut pick = u[0];
-        let mut p = 0;
-        while p < P_MAX && pick >= w[p] {
-            pick -= w[p];
-            p += 1;
-        }
+        let (p, _) = pick(&w, u[0]);
         let (sin_o, cos_o) = self.tilted(&inc, p);
         let (sin_i, cos_i) = self.m[p].sample(cos_o, sin_o, u[1], u[2]);
         let dphi = if p < P_MAX { phi_p(p, inc.gamma_o, inc.gamma_t) + self.n.sample(u[3]) } else { TAU * u[3] };
@@ -137,6 +156,41 @@ impl FiberModel for Chiang {
         let inc = self.incidence(wo, h);
         let w = lobe_weights(&inc.ap);
         let d = self.lobe_densities(&inc, wi);
+        (0..=P_MAX).map(|p| w[p] * d[p]).sum()
+    }
+}
+
+impl SpreadScattering for Chiang {
+    fn eval_spread(&self, wo: DVec3, wi: DVec3, h: f64, spread: Rgb) -> Rgb {
+        let inc = self.incidence(wo, h);
+        let (sin_i, cos_i) = sin_cos_theta(wi);
+        let n = self.half_circle_averages(&inc, wi);
+        let mut out = Rgb::ZERO;
+        for (p, n) in n.into_iter().enumerate() {
+            let (sin_o, cos_o) = self.tilted(&inc, p);
+            for c in 0..3 {
+                let m = self.m[p].widened(spread.0[c]).eval(cos_i, sin_i, cos_o, sin_o);
+                out.0[c] += inc.ap[p].0[c] * m * n;
+            }
+        }
+        out
+    }
+
+    fn sample_spread(&self, wo: DVec3, h: f64, spread: f64, u: [f64; 4]) -> Option<DVec3> {
+        let inc = self.incidence(wo, h);
+        let (p, offset) = pick(&lobe_weights(&inc.ap), u[0]);
+        let (sin_o, cos_o) = self.tilted(&inc, p);
+        let (sin_i, cos_i) = self.m[p].widened(spread).sample(cos_o, sin_o, u[1], u[2]);
+        // The lobe's own azimuth, then a uniform offset within the half circle.
+        let lobe = if p < P_MAX { phi_p(p, inc.gamma_o, inc.gamma_t) + self.n.sample(u[3]) } else { TAU * u[3] };
+        let (sin_p, cos_p) = (inc.phi_o + lobe + PI * (offset - 0.5)).sin_cos();
+        Some(DVec3::new(sin_i, cos_i * cos_p, cos_i * sin_p))
+    }
+
+    fn pdf_spread(&self, wo: DVec3, wi: DVec3, h: f64, spread: f64) -> f64 {
+        let inc = self.incidence(wo, h);
+        let w = lobe_weights(&inc.ap);
+        let d = self.spread_densities(&inc, wi, spread);
         (0..=P_MAX).map(|p| w[p] * d[p]).sum()
     }
 }

@@ -28,6 +28,11 @@ impl Longitudinal {
         Longitudinal { v, log_norm: v.ln() + (-(-2.0 / v).exp_m1()).ln() }
     }
 
+    /// The same lobe widened by an extra variance (variances add under convolution).
+    pub fn widened(&self, extra: f64) -> Longitudinal {
+        Longitudinal::new(self.v + extra)
+    }
+
     /// M_p from the sines and cosines of both inclinations, finite for every `v > 0`.
     ///
     /// With a = cos_o cos_i / v and b = sin_o sin_i / v:

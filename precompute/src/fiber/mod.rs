@@ -15,7 +15,7 @@ mod params;
 pub use attenuation::{P_MAX, fresnel_dielectric};
 pub use azimuthal::scale_from_beta_n;
 pub use chiang::Chiang;
-pub use longitudinal::{mp, variance_from_beta_m};
+pub use longitudinal::{Longitudinal, mp, variance_from_beta_m};
 pub use params::{Absorption, FiberParams, ParamError};
 
 use crate::conventions::SPHERE;
@@ -51,6 +51,26 @@ pub trait FiberModel: Send + Sync {
 
     /// Density per unit solid angle with which [`FiberModel::sample`] draws `wi`.
     fn pdf(&self, wo: DVec3, wi: DVec3, h: f64) -> f64;
+}
+
+/// What dual scattering needs of a fiber model beyond single scattering: its response f_s^G to
+/// light that reaches the fiber after passing forward through other fibers (Zinke et al. 2008
+/// section 4; thesis eq. 3.19; design section 4).
+///
+/// That light arrives spread about the direction `wi` it entered the hair from: longitudinally by
+/// an extra variance `spread` of the inclination (radians^2, per channel), azimuthally uniformly
+/// over the half circle of directions within pi/2 of `wi`'s azimuth (Zinke's s_f = 1/pi). So f_s^G
+/// widens every longitudinal lobe by `spread` and replaces each N_p by its average over that
+/// half circle. Like [`FiberModel::eval`] it is the projected value per unit solid angle of `wi`
+/// and integrates over `wi` to the same albedo.
+pub trait SpreadScattering: FiberModel {
+    fn eval_spread(&self, wo: DVec3, wi: DVec3, h: f64, spread: Rgb) -> Rgb;
+
+    /// Draws `wi` for one `spread` shared by all channels, from four uniform numbers in [0, 1).
+    fn sample_spread(&self, wo: DVec3, h: f64, spread: f64, u: [f64; 4]) -> Option<DVec3>;
+
+    /// Density per unit solid angle with which [`SpreadScattering::sample_spread`] draws `wi`.
+    fn pdf_spread(&self, wo: DVec3, wi: DVec3, h: f64, spread: f64) -> f64;
 }
 
 /// Any fiber model, sampled uniformly over the sphere: the baseline for comparisons.

@@ -1,0 +1,119 @@
+//! On-disk cache of what the dual-scattering integrator precomputes: the tables (keyed by the
+//! fiber, d_b and the table resolution) and the density grid (keyed by the strands' exact geometry
+//! and the voxel size). A render reuses them while their inputs are unchanged and recomputes them
+//! otherwise. Location: `$DUALHAIR_CACHE`, else `$XDG_CACHE_HOME/dualhair`, else
+//! `$HOME/.cache/dualhair`. Entries are named by a 64-bit FNV-1a hash of their inputs, and a
+//! cached table also records its inputs, which are compared on load.
+
+use crate::output::write_atomically;
+use anyhow::{Context, Result};
+use indicatif::ProgressBar;
+use precompute::density::{DensityGrid, read_vdb, write_vdb};
+use precompute::fiber::{Chiang, FiberParams};
+use precompute::strands::Strands;
+use precompute::tables::{TableSettings, Tables, compute};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// Bumped whenever the cached formats or the computations change meaning.
+const VERSION: u64 = 1;
+
+/// 64-bit FNV-1a (Fowler, Noll, Vo): stable across platforms and compiler versions.
+struct Fnv(u64);
+
+impl Fnv {
+    fn new() -> Fnv {
+        Fnv(0xcbf2_9ce4_8422_2325 ^ VERSION)
+    }
+
+    fn bytes(mut self, bytes: &[u8]) -> Fnv {
+        for &b in bytes {
+            self.0 = (self.0 ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        self
+    }
+}
+
+pub struct Cache {
+    dir: PathBuf,
+}
+
+impl Cache {
+    pub fn at(dir: impl Into<PathBuf>) -> Cache {
+        Cache { dir: dir.into() }
+    }
+
+    /// The default location (see the module documentation).
+    pub fn default_location() -> Cache {
+        let env = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+        let dir = env("DUALHAIR_CACHE")
+            .or_else(|| env("XDG_CACHE_HOME").map(|d| d.join("dualhair")))
+            .or_else(|| env("HOME").map(|d| d.join(".cache/dualhair")))
+            .unwrap_or_else(|| std::env::temp_dir().join("dualhair-cache"));
+        Cache::at(dir)
+    }
+
+    fn entry(&self, name: String) -> Result<PathBuf> {
+        std::fs::create_dir_all(&self.dir)
+            .with_context(|| format!("{}: cannot create the cache folder", self.dir.display()))?;
+        Ok(self.dir.join(name))
+    }
+
+    /// The dual-scattering tables of a fiber at its default resolution; `progress` shows a
+    /// spinner while they are computed.
+    pub fn tables(&self, fiber: &FiberParams, d_b: f64, progress: bool) -> Result<Tables> {
+        let settings = TableSettings::for_fiber(fiber);
+        let inputs = serde_json::to_vec(&(fiber, d_b, settings.resolution()))?;
+        let path = self.entry(format!("tables-{:016x}.json", Fnv::new().bytes(&inputs).0))?;
+        if let Some(tables) = load_tables(&path, fiber, d_b) {
+            return Ok(tables);
+        }
+        let spinner = if progress { ProgressBar::new_spinner() } else { ProgressBar::hidden() };
+        spinner.set_message(format!(
+            "computing the dual-scattering tables once for this fiber (cached in {})",
+            path.display()
+        ));
+        spinner.enable_steady_tick(Duration::from_millis(120));
+        let mut tables = compute(&Chiang::new(fiber)?, &settings, d_b);
+        spinner.finish_and_clear();
+        tables.fiber = Some(*fiber);
+        write_atomically(&path, |tmp| Ok(std::fs::write(tmp, serde_json::to_vec(&tables.to_json())?)?))?;
+        Ok(tables)
+    }
+
+    /// The density grid of some strands at a voxel size (automatic when `None`).
+    pub fn density(&self, strands: &Strands, voxel_size: Option<f64>) -> Result<DensityGrid> {
+        let size = voxel_size.unwrap_or_else(|| DensityGrid::auto_voxel_size(strands));
+        let mut h = Fnv::new().bytes(&size.to_le_bytes());
+        for p in &strands.points {
+            h = h.bytes(&p.to_array().map(f32::to_le_bytes).concat());
+        }
+        for r in &strands.radii {
+            h = h.bytes(&r.to_le_bytes());
+        }
+        for o in &strands.offsets {
+            h = h.bytes(&o.to_le_bytes());
+        }
+        let path = self.entry(format!("density-{:016x}.vdb", h.0))?;
+        if let Ok(grid) = read_vdb(&path, "density")
+            && grid.voxel_size == size
+        {
+            return Ok(grid);
+        }
+        let grid = DensityGrid::voxelize(strands, size);
+        write_atomically(&path, |tmp| {
+            let mut w = std::io::BufWriter::new(std::fs::File::create(tmp)?);
+            write_vdb(&mut w, &grid, "density")?;
+            Ok(w.flush()?)
+        })?;
+        Ok(grid)
+    }
+}
+
+/// A cached table, if the file is readable and was made from these inputs.
+fn load_tables(path: &Path, fiber: &FiberParams, d_b: f64) -> Option<Tables> {
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(path).ok()?).ok()?;
+    let tables = Tables::from_json(&json).ok()?;
+    (tables.fiber.as_ref() == Some(fiber) && tables.d_b == d_b).then_some(tables)
+}

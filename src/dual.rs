@@ -1,0 +1,255 @@
+//! `dual`: the dual-scattering integrator (Zinke et al. 2008, ray-shooting variant, with the
+//! thesis's voxel density grid: seed 003 chapters 3.3 and 5.2; design section 4).
+//!
+//! A camera ray stops at the first fiber it hits, as in `single`. There the fiber-to-fiber bounces
+//! of `path` are replaced by a shading function F(wo, wi) of the direction wi toward the light:
+//!
+//! ```text
+//! fully lit (a shadow ray through the real strands escapes):
+//!     F = f_s + d_b f_back                                                  (F_direct)
+//! in shadow (n = fibers crossed toward the light, from the density grid):
+//!     T_f = d_f a_f(theta)^n,  sigma_f^2 = n beta_f(theta)^2
+//!     F = T_f d_f (f_s^G + pi d_b f_back^G)                                 (F_scatter)
+//! ```
+//!
+//! with theta the light's inclination (the tables' argument, never theta_d). Every F here is, like
+//! [`precompute::fiber::FiberModel::eval`], the projected value f |cos theta_i| per unit solid
+//! angle of wi. The pieces:
+//!
+//! - f_s is the fiber model and f_s^G its forward-spread response
+//!   ([`SpreadScattering::eval_spread`]) with every lobe widened by 4 sigma_f^2: the tables' widths
+//!   are of theta_h = (theta + theta_i) / 2, so a variance of the inclination is 4 times theirs.
+//! - f_back = A_b(theta) M(theta_i; 2 Delta_b - theta_o, 4 sigma_b^2) s_b(phi), with M the
+//!   normalized longitudinal lobe of d'Eon et al. 2011 (a Gaussian of theta_h, centred on Delta_b
+//!   with standard deviation sigma_b, is that Gaussian of theta_i with twice the width) and
+//!   s_b = 1/pi over the backward half |phi| < pi/2 (thesis eq. 3.26). Zinke's constant
+//!   2 / (pi cos^2 theta_d) belongs to Marschner's theta_h-normalized Gaussians; with normalized
+//!   lobes f_back carries exactly A_b, as A_b's definition asks (thesis eqs. 3.22-3.25).
+//! - f_back^G widens M by 4 sigma_f^2 and replaces s_b by its convolution with the half circle
+//!   the forward-scattered light arrives from: (pi - |phi|) / pi^2, which also integrates to 1.
+//!
+//! d_f = d_b = 0 leaves F = f_s when lit and 0 in shadow: single scattering, sample for sample.
+//!
+//! The environment integral of F is estimated with one light sample per light and one sample of
+//! F's own sampler, combined by the power heuristic (Veach 1997). F's sampler is `uniform` over
+//! the sphere, or `importance`: a mixture of the fiber's d'Eon 2013 sampler (f_s), its spread
+//! sampler (f_s^G), the backscatter lobe (f_back) and the uniform sphere, which keeps every part of
+//! F reachable whatever n turns out to be, so that no estimator is biased. `light` uses light
+//! sampling alone (unbiased too: the environment's sampler covers every direction it lights).
+
+use crate::fibers::{Fibers, Hit};
+use crate::integrator::{CameraSample, Frame, Integrator, background, power_heuristic, seen_lights, spawn_point};
+use crate::light::{LightSample, Lights};
+use crate::scene::Sampling;
+use glam::{DVec3, Vec3};
+use precompute::conventions::{SPHERE, h_offset, phi, pick, sin_cos_theta, uniform_sphere, wrap_angle};
+use precompute::density::DensityGrid;
+use precompute::fiber::{Longitudinal, SpreadScattering};
+use precompute::spectrum::Rgb;
+use precompute::tables::{Quantity, Tables};
+use rand::Rng;
+use std::f64::consts::{FRAC_1_PI, FRAC_PI_2, PI};
+
+/// Floor on the backscatter lobe's variance (radians^2): sigma_b is 0 only where a_b = 0, and
+/// there A_b = 0 too.
+const MIN_VARIANCE: f64 = 1e-4;
+
+/// Fibers crossed that the spread sampler of the `importance` mixture is sized for.
+const SPREAD_PROPOSAL_FIBERS: f64 = 2.0;
+
+pub struct DualScattering<'a> {
+    pub fibers: &'a Fibers,
+    pub fiber: &'a dyn SpreadScattering,
+    pub lights: &'a Lights,
+    pub tables: &'a Tables,
+    pub grid: &'a DensityGrid,
+    /// Forward scattering density factor d_f in [0, 1] (Zinke et al. 2008; thesis eq. 3.17).
+    pub d_f: f64,
+    /// Backscattering density factor d_b in [0, 1] (thesis eq. 3.21).
+    pub d_b: f64,
+    pub sampling: Sampling,
+}
+
+/// The components of the `importance` mixture, in the order of its weights; the last, 3, is the
+/// uniform sphere.
+const FIBER: usize = 0;
+const SPREAD: usize = 1;
+const BACK: usize = 2;
+
+/// F at one fiber hit, with its sampler.
+struct Shading<'a> {
+    dual: &'a DualScattering<'a>,
+    frame: Frame,
+    /// Toward the camera, local frame.
+    wo: DVec3,
+    h: f64,
+    /// Origin of shadow rays and grid marches.
+    from: Vec3,
+    /// Weights of the `importance` mixture.
+    mix: [f64; 4],
+    /// The backscatter proposal: its lobe and the (sin, cos) of the inclination it mirrors.
+    back: (Longitudinal, f64, f64),
+    /// Longitudinal variance of the spread proposal.
+    spread: f64,
+}
+
+impl<'a> Shading<'a> {
+    fn new(dual: &'a DualScattering<'a>, hit: &Hit, dir: DVec3) -> Shading<'a> {
+        let frame = Frame::new(hit.tangent);
+        let wo = frame.to_local(-dir);
+        let h = h_offset(wo, frame.to_local(hit.normal.as_dvec3()));
+        // The proposals use the tables at the mirror inclination -theta_o, where most light that
+        // reaches the camera comes from.
+        let (sin_o, _) = sin_cos_theta(wo);
+        let row = dual.tables.at(-sin_o.asin());
+        let q = |q: Quantity| row[q as usize].luminance();
+        let (delta, sigma) = (q(Quantity::DeltaB), q(Quantity::SigmaB));
+        let back = Longitudinal::new((4.0 * sigma * sigma).max(MIN_VARIANCE));
+        let (s, c) = (sin_o.asin() - 2.0 * delta).sin_cos();
+        let beta_f = q(Quantity::BetaF);
+        let spread = 4.0 * SPREAD_PROPOSAL_FIBERS * beta_f * beta_f;
+        // Without multiple scattering the mixture is the fiber sampler alone (what `single` does).
+        let (d_f, d_b) = (dual.d_f, dual.d_b);
+        let mut mix = [1.0, 0.5 * d_f, 0.5 * d_b, 0.25 * d_f.max(d_b)];
+        let total: f64 = mix.iter().sum();
+        mix.iter_mut().for_each(|w| *w /= total);
+        Shading { dual, frame, wo, h, from: spawn_point(hit), mix, back: (back, s, c), spread }
+    }
+
+    /// F(wo, wi) toward the light direction `wi` (local) = `d` (world).
+    fn f(&self, wi: DVec3, d: DVec3) -> Rgb {
+        let dual = self.dual;
+        let (sin_i, cos_i) = sin_cos_theta(wi);
+        let dphi = wrap_angle(phi(wi) - phi(self.wo)).abs();
+        if !dual.fibers.occluded(self.from, d.as_vec3(), f32::INFINITY) {
+            let mut f = dual.fiber.eval(self.wo, wi, self.h);
+            if dual.d_b > 0.0 && dphi < FRAC_PI_2 {
+                let row = dual.tables.at(sin_i.asin());
+                f += self.backscatter(&row, sin_i, cos_i, Rgb::ZERO) * (dual.d_b * FRAC_1_PI);
+            }
+            return f;
+        }
+        if dual.d_f == 0.0 {
+            return Rgb::ZERO;
+        }
+        let row = dual.tables.at(sin_i.asin());
+        let n = dual.grid.fibers_crossed(self.from.as_dvec3(), d, f64::INFINITY);
+        let t_f = Rgb(row[Quantity::AF as usize].0.map(|a| dual.d_f * a.powf(n)));
+        let var_f = Rgb(row[Quantity::BetaF as usize].0.map(|b| n * b * b));
+        let mut f = dual.fiber.eval_spread(self.wo, wi, self.h, var_f * 4.0);
+        if dual.d_b > 0.0 {
+            let azimuth = (PI - dphi) * FRAC_1_PI * FRAC_1_PI;
+            f += self.backscatter(&row, sin_i, cos_i, var_f) * (PI * dual.d_b * azimuth);
+        }
+        t_f * f * dual.d_f
+    }
+
+    /// A_b(theta) M(theta_i; 2 Delta_b - theta_o, 4 (sigma_b^2 + extra)) per channel: f_back
+    /// without its azimuthal factor. `extra` is a theta_h variance, like sigma_b^2.
+    fn backscatter(&self, row: &[Rgb; 9], sin_i: f64, cos_i: f64, extra: Rgb) -> Rgb {
+        let theta_o = sin_cos_theta(self.wo).0.asin();
+        Rgb(std::array::from_fn(|c| {
+            let a = row[Quantity::ABack as usize].0[c];
+            if a <= 0.0 {
+                return 0.0;
+            }
+            let sigma = row[Quantity::SigmaB as usize].0[c];
+            let (s, co) = (theta_o - 2.0 * row[Quantity::DeltaB as usize].0[c]).sin_cos();
+            let lobe = Longitudinal::new((4.0 * (sigma * sigma + extra.0[c])).max(MIN_VARIANCE));
+            a * lobe.eval(cos_i, sin_i, co, s)
+        }))
+    }
+
+    /// A direction (local) from F's sampler; `None` for `light` sampling.
+    fn sample(&self, u: [f64; 4]) -> Option<DVec3> {
+        match self.dual.sampling {
+            Sampling::Light => None,
+            Sampling::Uniform => Some(uniform_sphere([u[0], u[1]])),
+            Sampling::Importance => {
+                let (k, u0) = pick(&self.mix, u[0]);
+                let (wo, h) = (self.wo, self.h);
+                match k {
+                    FIBER => self.dual.fiber.sample(wo, h, [u0, u[1], u[2], u[3]]).map(|s| s.wi),
+                    SPREAD => self.dual.fiber.sample_spread(wo, h, self.spread, [u0, u[1], u[2], u[3]]),
+                    BACK => {
+                        let (lobe, s, c) = &self.back;
+                        let (sin_i, cos_i) = lobe.sample(*c, *s, u0, u[1]);
+                        let (sin_p, cos_p) = (phi(wo) + PI * (u[2] - 0.5)).sin_cos();
+                        Some(DVec3::new(sin_i, cos_i * cos_p, cos_i * sin_p))
+                    }
+                    _ => Some(uniform_sphere([u0, u[1]])),
+                }
+            }
+        }
+    }
+
+    /// Density per unit solid angle of [`Shading::sample`] at `wi` (local).
+    fn pdf(&self, wi: DVec3) -> f64 {
+        match self.dual.sampling {
+            Sampling::Light => 0.0,
+            Sampling::Uniform => 1.0 / SPHERE,
+            Sampling::Importance => {
+                let (wo, h) = (self.wo, self.h);
+                let mut pdf = 0.0;
+                for (k, &w) in self.mix.iter().enumerate() {
+                    if w == 0.0 {
+                        continue;
+                    }
+                    pdf += w * match k {
+                        FIBER => self.dual.fiber.pdf(wo, wi, h),
+                        SPREAD => self.dual.fiber.pdf_spread(wo, wi, h, self.spread),
+                        BACK if wrap_angle(phi(wi) - phi(wo)).abs() < FRAC_PI_2 => {
+                            let (sin_i, cos_i) = sin_cos_theta(wi);
+                            let (lobe, s, c) = &self.back;
+                            lobe.eval(cos_i, sin_i, *c, *s) * FRAC_1_PI
+                        }
+                        BACK => 0.0,
+                        _ => 1.0 / SPHERE,
+                    };
+                }
+                pdf
+            }
+        }
+    }
+
+    /// Radiance from a light sample, MIS-weighted against F's sampler.
+    fn light(&self, s: &LightSample) -> Rgb {
+        let wi = self.frame.to_local(s.wi);
+        let f = self.f(wi, s.wi);
+        if f.luminance() <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let w = if s.delta { 1.0 } else { power_heuristic(s.pdf, self.pdf(wi)) };
+        f * s.radiance * (w / s.pdf)
+    }
+}
+
+impl Integrator for DualScattering<'_> {
+    fn radiance(&self, origin: Vec3, dir: DVec3, rng: &mut impl Rng) -> CameraSample {
+        let Some(hit) = self.fibers.closest_hit(origin, dir.as_vec3(), f32::INFINITY) else {
+            return background(self.lights, dir);
+        };
+        let shading = Shading::new(self, &hit, dir);
+        let mut radiance = Rgb::ZERO;
+        // The same random numbers in the same order as `single`, so d_f = d_b = 0 reproduces it.
+        if let Some(env) = &self.lights.environment
+            && let Some(s) = env.sample(rng.random())
+        {
+            radiance += shading.light(&s);
+        }
+        if let Some(sun) = &self.lights.sun {
+            radiance += shading.light(&sun.sample(rng.random()));
+        }
+        // Drawn even for light sampling alone, so that every strategy's pixel streams stay in step
+        // (renders with the same seed then differ only through the strategy).
+        let u: [f64; 4] = rng.random();
+        if let Some(wi) = shading.sample(u) {
+            let pdf = shading.pdf(wi);
+            if pdf > 0.0 {
+                let d = shading.frame.to_world(wi).normalize();
+                radiance += shading.f(wi, d) / pdf * seen_lights(self.lights, d, pdf);
+            }
+        }
+        CameraSample { radiance, hit_hair: true }
+    }
+}

@@ -127,9 +127,9 @@ fn main() {
             let path_hit = first_within(&path_sweep, target);
             let show = |h: Option<(u32, f64)>| h.map_or("not reached".into(), |(s, t)| format!("{t:.3} s ({s} spp)"));
             let speedup = match (dual_hit, path_hit) {
-                (Some(d), Some(p)) => format!("{:.0}x", p.1 / d.1),
+                (Some(d), Some(p)) => format!("{:.2}x", p.1 / d.1),
                 (Some(d), None) => {
-                    format!("> {:.0}x", path_sweep.iter().map(|s| s.1).fold(0.0, f64::max) / d.1)
+                    format!("> {:.2}x", path_sweep.iter().map(|s| s.1).fold(0.0, f64::max) / d.1)
                 }
                 _ => "-".into(),
             };

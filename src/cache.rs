@@ -20,14 +20,14 @@ use std::time::Duration;
 const VERSION: u64 = 1;
 
 /// 64-bit FNV-1a (Fowler, Noll, Vo): stable across platforms and compiler versions.
-struct Fnv(u64);
+pub(crate) struct Fnv(pub(crate) u64);
 
 impl Fnv {
-    fn new() -> Fnv {
+    pub(crate) fn new() -> Fnv {
         Fnv(0xcbf2_9ce4_8422_2325 ^ VERSION)
     }
 
-    fn bytes(mut self, bytes: &[u8]) -> Fnv {
+    pub(crate) fn bytes(mut self, bytes: &[u8]) -> Fnv {
         for &b in bytes {
             self.0 = (self.0 ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3);
         }

@@ -1,14 +1,34 @@
 //! Image comparisons over hair pixels: the measures accuracy and convergence are judged by.
 //!
 //! Hair pixels are those the reference covers fully (alpha 1: every camera sample hit hair), so
-//! the background and the hair's silhouette, where coverage itself is noisy, stay out. Errors are
-//! over all three channels of those pixels.
+//! the background and the hair's silhouette, where coverage itself is noisy, stay out; a pixel
+//! rectangle can replace them (as the thesis's Figure 6.5 region). Errors are over all three
+//! channels of those pixels, in linear radiance.
 
 use crate::film::Film;
 
 /// Indices of the pixels `reference` covers fully.
 pub fn hair_pixels(reference: &Film) -> Vec<usize> {
     (0..reference.alpha.len()).filter(|&i| reference.alpha[i] >= 1.0).collect()
+}
+
+/// Indices of the pixels in the rectangle [x0, x1) x [y0, y1) (clipped to the image).
+pub fn rectangle(film: &Film, [x0, y0, x1, y1]: [usize; 4]) -> Vec<usize> {
+    let (x1, y1) = (x1.min(film.width), y1.min(film.height));
+    (y0..y1).flat_map(|y| (x0..x1).map(move |x| y * film.width + x)).collect()
+}
+
+/// Mean squared difference between two images over `pixels` and channels (the thesis's "distance
+/// expressed in variance", Tables 6.1 and 6.2).
+pub fn mse(a: &Film, b: &Film, pixels: &[usize]) -> f64 {
+    pixels.iter().map(|&i| (a.mean[i] - b.mean[i]).0.iter().map(|d| d * d).sum::<f64>()).sum::<f64>()
+        / (3 * pixels.len()) as f64
+}
+
+/// Mean over `pixels` and channels of the variance of the pixel means: the part of an [`mse`]
+/// against this image that its own noise explains.
+pub fn mean_variance(film: &Film, pixels: &[usize]) -> f64 {
+    pixels.iter().map(|&i| film.variance[i].0.iter().sum::<f64>()).sum::<f64>() / (3 * pixels.len()) as f64
 }
 
 /// Mean luminance over `pixels`.
@@ -24,16 +44,57 @@ fn mean_value(film: &Film, pixels: &[usize]) -> f64 {
 /// Relative RMSE of `test` against `reference`: sqrt(mean squared difference) / mean value, over
 /// `pixels` and channels.
 pub fn relative_rmse(test: &Film, reference: &Film, pixels: &[usize]) -> f64 {
-    let mse =
-        pixels.iter().map(|&i| (test.mean[i] - reference.mean[i]).0.iter().map(|d| d * d).sum::<f64>()).sum::<f64>()
-            / (3 * pixels.len()) as f64;
-    mse.sqrt() / mean_value(reference, pixels)
+    mse(test, reference, pixels).sqrt() / mean_value(reference, pixels)
 }
 
 /// The part of [`relative_rmse`] that noise alone explains: the root of the mean summed variance
 /// of both images' pixel means, relative to the same mean value.
 pub fn relative_noise(test: &Film, reference: &Film, pixels: &[usize]) -> f64 {
-    let var = pixels.iter().map(|&i| (test.variance[i] + reference.variance[i]).0.iter().sum::<f64>()).sum::<f64>()
-        / (3 * pixels.len()) as f64;
-    var.sqrt() / mean_value(reference, pixels)
+    (mean_variance(test, pixels) + mean_variance(reference, pixels)).sqrt() / mean_value(reference, pixels)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use precompute::spectrum::Rgb;
+
+    fn film(width: usize, values: &[f64], alpha: &[f64]) -> Film {
+        Film {
+            width,
+            height: values.len() / width,
+            spp: 1,
+            mean: values.iter().map(|&v| Rgb([v, 2.0 * v, 0.0])).collect(),
+            alpha: alpha.to_vec(),
+            variance: vec![Rgb([0.5, 0.0, 0.25]); values.len()],
+        }
+    }
+
+    #[test]
+    fn measures_match_hand_computed_values() {
+        // 2x2 images; the reference covers pixels 0, 1 and 3 fully.
+        let reference = film(2, &[1.0, 2.0, 3.0, 4.0], &[1.0, 1.0, 0.5, 1.0]);
+        let test = film(2, &[2.0, 2.0, 0.0, 1.0], &[1.0, 0.0, 1.0, 1.0]);
+        let hair = hair_pixels(&reference);
+        assert_eq!(hair, vec![0, 1, 3]);
+        // Differences per pixel (R, G, B): (1, 2, 0), (0, 0, 0), (-3, -6, 0): squares sum to
+        // 1 + 4 + 9 + 36 = 50 over 3 pixels x 3 channels.
+        assert!((mse(&test, &reference, &hair) - 50.0 / 9.0).abs() < 1e-12);
+        // Mean value of the reference over those pixels and channels: (3 + 6 + 12) / 9.
+        assert!((relative_rmse(&test, &reference, &hair) - (50.0f64 / 9.0).sqrt() / (21.0 / 9.0)).abs() < 1e-12);
+        // Variance 0.5 + 0 + 0.25 per pixel over 3 channels, from each image.
+        assert!((mean_variance(&test, &hair) - 0.25).abs() < 1e-12);
+        assert!((relative_noise(&test, &reference, &hair) - 0.5f64.sqrt() / (21.0 / 9.0)).abs() < 1e-12);
+        let y = |v: f64| 0.2126 * v + 0.7152 * 2.0 * v;
+        assert!((mean_luminance(&reference, &hair) - (y(1.0) + y(2.0) + y(4.0)) / 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_rectangle_replaces_the_hair_mask() {
+        let f = film(3, &[0.0; 6], &[0.0; 6]);
+        assert!(hair_pixels(&f).is_empty());
+        assert_eq!(rectangle(&f, [1, 0, 3, 2]), vec![1, 2, 4, 5]);
+        // Clipped to the image.
+        assert_eq!(rectangle(&f, [2, 1, 10, 10]), vec![5]);
+        assert!(rectangle(&f, [2, 2, 3, 3]).is_empty());
+    }
 }

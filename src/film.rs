@@ -2,7 +2,7 @@
 //! count) and as a tone-mapped PNG.
 
 use crate::output::{write_atomically, write_png};
-use anyhow::Result;
+use anyhow::{Context, Result, anyhow, ensure};
 use exr::prelude::*;
 use precompute::spectrum::Rgb;
 use std::path::Path;
@@ -74,6 +74,47 @@ impl Film {
             AnyChannels::sort(channels.into()),
         );
         write_atomically(path, |tmp| Ok(Image::from_layer(layer).write().to_file(tmp)?))
+    }
+
+    /// Reads an EXR written by [`Film::write_exr`] (R, G, B and A; the variance channels and
+    /// `spp` when present, else 0), checking that every channel is there and finite.
+    pub fn read_exr(path: &Path) -> Result<Film> {
+        let image = read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .from_file(path)
+            .with_context(|| format!("{}: cannot read the EXR image", path.display()))?;
+        let layer = &image.layer_data;
+        let (width, height) = (layer.size.width(), layer.size.height());
+        let channel = |name: &str| -> Result<Option<Vec<f64>>> {
+            let Some(c) = layer.channel_data.list.iter().find(|c| c.name.to_string() == name) else {
+                return Ok(None);
+            };
+            let v: Vec<f64> = c.sample_data.values_as_f32().map(f64::from).collect();
+            ensure!(v.len() == width * height, "{}: channel {name} has the wrong size", path.display());
+            ensure!(v.iter().all(|x| x.is_finite()), "{}: channel {name} holds NaN or infinite values", path.display());
+            Ok(Some(v))
+        };
+        let need =
+            |name: &str| channel(name)?.ok_or_else(|| anyhow!("{}: the image has no {name} channel", path.display()));
+        let (r, g, b, a) = (need("R")?, need("G")?, need("B")?, need("A")?);
+        let var = ["variance.R", "variance.G", "variance.B"].map(&channel);
+        let zero = vec![0.0; width * height];
+        let [vr, vg, vb] = var;
+        let (vr, vg, vb) = (vr?.unwrap_or(zero.clone()), vg?.unwrap_or(zero.clone()), vb?.unwrap_or(zero));
+        let spp = channel("spp")?.and_then(|s| s.first().copied()).unwrap_or(0.0) as u32;
+        let n = width * height;
+        Ok(Film {
+            width,
+            height,
+            spp,
+            mean: (0..n).map(|i| Rgb([r[i], g[i], b[i]])).collect(),
+            alpha: a,
+            variance: (0..n).map(|i| Rgb([vr[i], vg[i], vb[i]])).collect(),
+        })
     }
 
     /// Writes an sRGB PNG of the radiance scaled by 2^`exposure`, clipped to [0, 1].

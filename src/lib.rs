@@ -7,6 +7,7 @@
 pub mod cache;
 pub mod camera;
 pub mod compare;
+pub mod converge_cmd;
 pub mod dual;
 pub mod fiber_args;
 pub mod fibers;

@@ -1,4 +1,5 @@
 use clap::{Parser, Subcommand};
+use dualhair::converge_cmd::{self, ConvergeArgs};
 use dualhair::lobe_cmd::{self, LobeArgs};
 use dualhair::precompute_cmd::{self, PrecomputeCommand};
 use dualhair::render_cmd::{self, RenderArgs};
@@ -21,6 +22,8 @@ enum Command {
     Precompute(PrecomputeCommand),
     /// Write a lat-long image of a single fiber's scattering lobe.
     Lobe(LobeArgs),
+    /// Compare methods: error vs. spp and vs. wall time, with tables and charts.
+    Converge(ConvergeArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -29,6 +32,7 @@ fn main() -> std::process::ExitCode {
         Command::Render(args) => render_cmd::run(args),
         Command::Precompute(command) => precompute_cmd::run(command),
         Command::Lobe(args) => lobe_cmd::run(args),
+        Command::Converge(args) => converge_cmd::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

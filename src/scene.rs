@@ -123,7 +123,7 @@ impl OneOrRgb {
     }
 }
 
-#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum IntegratorKind {
     /// Direct lighting only.
@@ -134,7 +134,7 @@ pub enum IntegratorKind {
     Dual,
 }
 
-#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum Sampling {
     /// d'Eon et al. 2013 fiber importance sampling (for dual, a mixture covering all its terms).

@@ -82,7 +82,7 @@ fn sampling_strategies_converge_to_the_same_image() {
     // the studio HDRI: the courtyard's sun makes uniform sampling ~6x noisier (se 0.35% at this
     // spp), too noisy to judge 0.5% within the CI budget.
     for name in ["blond", "brown"] {
-        let mut base = bundled(name, 40, 4096);
+        let mut base = bundled(name, 40, 8192);
         base.lights = bundled("blond", 1, 1).lights;
         base.render.integrator = IntegratorKind::Dual;
         let reference = render(&base);

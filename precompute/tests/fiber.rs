@@ -479,22 +479,6 @@ fn furnace_value_with_absorption_matches_between_estimators() {
     assert!(imp.0[0] < 1.0 && imp.0[2] < imp.0[0], "absorption must remove energy, most in blue: {imp:?}");
 }
 
-/// The spread response of dual scattering as a [`FiberModel`], to reuse the checks above.
-struct Spread(Chiang, f64);
-
-impl FiberModel for Spread {
-    fn eval(&self, wo: DVec3, wi: DVec3, h: f64) -> Rgb {
-        self.0.eval_spread(wo, wi, h, Rgb([self.1; 3]))
-    }
-    fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<precompute::fiber::FiberSample> {
-        let wi = self.0.sample_spread(wo, h, self.1, u)?;
-        Some(precompute::fiber::FiberSample { wi, value: self.eval(wo, wi, h), pdf: self.pdf(wo, wi, h) })
-    }
-    fn pdf(&self, wo: DVec3, wi: DVec3, h: f64) -> f64 {
-        self.0.pdf_spread(wo, wi, h, self.1)
-    }
-}
-
 #[test]
 fn spread_response_is_the_half_circle_average_of_the_fiber() {
     // Without extra longitudinal spread, f_s^G at azimuth phi is (1/pi) times the integral of f_s
@@ -514,15 +498,14 @@ fn spread_response_is_the_half_circle_average_of_the_fiber() {
 }
 
 #[test]
-fn spread_response_keeps_the_albedo_and_its_sampler_is_exact() {
-    // f_s^G integrates over wi to the same albedo as f_s (the spread moves light, never adds or
-    // removes it), its pdf integrates to 1, and the sampler draws from that pdf (chi-square).
+fn spread_response_keeps_the_albedo() {
+    // f_s^G integrates over wi to the same albedo as f_s, channel by channel: the spread moves
+    // light, never adds or removes it.
     let cases = [
         (0.3, 0.3, 2.0, 0.5, 0.4, 0.3, 0.05),
         (0.2, 0.4, -3.0, 0.0, -1.2, -0.9, 0.6),
         (0.5, 0.2, 2.0, 0.2, 1.5, 0.0, 2.0),
     ];
-    let alpha = 1.0 - 0.99f64.powf(1.0 / cases.len() as f64);
     for (i, (bm, bn, a, sa, theta_o, h, spread)) in cases.into_iter().enumerate() {
         let wo = direction(theta_o, 0.3);
         let model = fiber(bm, bn, a, sa);
@@ -531,10 +514,5 @@ fn spread_response_keeps_the_albedo_and_its_sampler_is_exact() {
             let spread_energy = sphere_quadrature(|wi| model.eval_spread(wo, wi, h, Rgb([spread; 3])).0[c], 600, 600);
             assert!((spread_energy / plain - 1.0).abs() < 2e-3, "case {i} channel {c}: {spread_energy} vs {plain}");
         }
-        let spread_model = Spread(model, spread);
-        let pdf = sphere_quadrature(|wi| spread_model.pdf(wo, wi, h), 600, 600);
-        assert!((pdf - 1.0).abs() < 2e-3, "case {i}: pdf integrates to {pdf}");
-        let (p, dof) = chi_square_p_value(&spread_model, wo, h, 400_000, 200 + i as u64);
-        assert!(dof > 50 && p > alpha, "case {i}: p = {p} with {dof} bins");
     }
 }

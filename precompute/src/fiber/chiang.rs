@@ -18,7 +18,7 @@ use super::{FiberModel, FiberParams, FiberSample, ParamError, SpreadScattering};
 use crate::conventions::{phi, pick, sin_cos_theta, wrap_angle};
 use crate::spectrum::Rgb;
 use glam::DVec3;
-use std::f64::consts::{FRAC_1_PI, PI, TAU};
+use std::f64::consts::{FRAC_1_PI, TAU};
 
 /// Chiang et al. 2016 fiber with precomputed per-material constants.
 #[derive(Clone, Debug)]
@@ -110,16 +110,6 @@ impl Chiang {
             }
         })
     }
-
-    /// Lobe densities of [`SpreadScattering::pdf_spread`] at wi.
-    fn spread_densities(&self, inc: &Incidence, wi: DVec3, spread: f64) -> [f64; P_MAX + 1] {
-        let (sin_i, cos_i) = sin_cos_theta(wi);
-        let n = self.half_circle_averages(inc, wi);
-        std::array::from_fn(|p| {
-            let (sin_o, cos_o) = self.tilted(inc, p);
-            self.m[p].widened(spread).eval(cos_i, sin_i, cos_o, sin_o) * n[p]
-        })
-    }
 }
 
 /// Lobe-selection probabilities: A_p by luminance, normalized (seed 002 section 1.4.2).
@@ -174,23 +164,5 @@ impl SpreadScattering for Chiang {
             }
         }
         out
-    }
-
-    fn sample_spread(&self, wo: DVec3, h: f64, spread: f64, u: [f64; 4]) -> Option<DVec3> {
-        let inc = self.incidence(wo, h);
-        let (p, offset) = pick(&lobe_weights(&inc.ap), u[0]);
-        let (sin_o, cos_o) = self.tilted(&inc, p);
-        let (sin_i, cos_i) = self.m[p].widened(spread).sample(cos_o, sin_o, u[1], u[2]);
-        // The lobe's own azimuth, then a uniform offset within the half circle.
-        let lobe = if p < P_MAX { phi_p(p, inc.gamma_o, inc.gamma_t) + self.n.sample(u[3]) } else { TAU * u[3] };
-        let (sin_p, cos_p) = (inc.phi_o + lobe + PI * (offset - 0.5)).sin_cos();
-        Some(DVec3::new(sin_i, cos_i * cos_p, cos_i * sin_p))
-    }
-
-    fn pdf_spread(&self, wo: DVec3, wi: DVec3, h: f64, spread: f64) -> f64 {
-        let inc = self.incidence(wo, h);
-        let w = lobe_weights(&inc.ap);
-        let d = self.spread_densities(&inc, wi, spread);
-        (0..=P_MAX).map(|p| w[p] * d[p]).sum()
     }
 }

@@ -65,12 +65,6 @@ pub trait FiberModel: Send + Sync {
 /// and integrates over `wi` to the same albedo.
 pub trait SpreadScattering: FiberModel {
     fn eval_spread(&self, wo: DVec3, wi: DVec3, h: f64, spread: Rgb) -> Rgb;
-
-    /// Draws `wi` for one `spread` shared by all channels, from four uniform numbers in [0, 1).
-    fn sample_spread(&self, wo: DVec3, h: f64, spread: f64, u: [f64; 4]) -> Option<DVec3>;
-
-    /// Density per unit solid angle with which [`SpreadScattering::sample_spread`] draws `wi`.
-    fn pdf_spread(&self, wo: DVec3, wi: DVec3, h: f64, spread: f64) -> f64;
 }
 
 /// Any fiber model, sampled uniformly over the sphere: the baseline for comparisons.

@@ -1,0 +1,547 @@
+//! `dualhair converge`: convergence and speed comparisons of integrators and sampling strategies
+//! (the thesis's Tables 6.1 and 6.2 and Figure 6.8, seed 003 section 6.3), as tables and charts.
+//!
+//! Every method renders the scene at every spp with K seeds; each render is timed alone (scene,
+//! tables and grid are ready before the clock starts) and written to `DIR/renders/`. Then, over
+//! hair pixels (or a rectangle):
+//!
+//! - `mse`: mean squared difference from the ground truth (Table 6.2), linear radiance;
+//! - `rel_variance`: mean squared difference from the same method and seed at half the spp
+//!   (Table 6.1). The half-spp render's samples are the first half of this one's (each pixel
+//!   draws from one stream per seed), so this is how much the image still changes per doubling.
+//!
+//! The ground truth is a high-spp render of the method family under test, cached in `DIR`, with
+//! its own noise (the mean variance of its pixel means, in MSE units) reported: errors near it are
+//! noise, not error. Rerunning with the same `DIR` reuses every finished render whose scene and
+//! settings match, so an interrupted run picks up where it stopped.
+
+use crate::cache::{Cache, Fnv};
+use crate::compare::{hair_pixels, mean_variance, mse, rectangle};
+use crate::film::Film;
+use crate::output::write_atomically;
+use crate::plot::register_fonts;
+use crate::render_cmd::{RenderArgs, render_scene, scene_file};
+use crate::scene::{IntegratorKind, Sampling, SceneFile};
+use anyhow::{Context, Result, anyhow, bail, ensure};
+use clap::ValueEnum;
+use indicatif::{ProgressBar, ProgressStyle};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use serde_json::json;
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Renders a scene with several methods at doubling spp and several seeds, and measures error
+/// against a ground truth (MSE) and change per doubling (relative variance), over hair pixels.
+#[derive(clap::Args, Debug)]
+pub struct ConvergeArgs {
+    /// Scene file (.json) or hair file (.hair); default: scenes/default.json.
+    pub scene: Option<PathBuf>,
+    /// Methods to compare, INTEGRATOR-SAMPLING, comma separated: dual-importance, dual-uniform,
+    /// dual-light, single-importance, single-uniform, path-importance, path-uniform.
+    #[arg(long, value_delimiter = ',', default_value = "dual-importance,dual-uniform")]
+    pub methods: Vec<Method>,
+    /// Samples per pixel, comma separated; powers of two give the per-doubling measure.
+    #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16,32,64,128,256,512")]
+    pub spp: Vec<u32>,
+    /// Independent seeds per method and spp (the scene's seed, +1, +2, ...).
+    #[arg(long, default_value_t = 3)]
+    pub seeds: u32,
+    /// Ground truth method (default: dual-importance when every method is dual, else
+    /// path-importance).
+    #[arg(long)]
+    pub truth: Option<Method>,
+    /// Ground truth spp (default: 8 times the largest spp).
+    #[arg(long)]
+    pub truth_spp: Option<u32>,
+    /// Measure over the pixel rectangle X0,Y0,X1,Y1 ([X0, X1) x [Y0, Y1), from the top left)
+    /// instead of the pixels the truth's hair covers fully.
+    #[arg(long, value_delimiter = ',', value_name = "X0,Y0,X1,Y1")]
+    pub rect: Option<Vec<usize>>,
+    /// Output folder.
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    #[arg(long)]
+    pub width: Option<usize>,
+    #[arg(long)]
+    pub height: Option<usize>,
+    /// Forward scattering density factor d_f (dual).
+    #[arg(long)]
+    pub d_f: Option<f64>,
+    /// Backscattering density factor d_b (dual).
+    #[arg(long)]
+    pub d_b: Option<f64>,
+    /// Most fiber vertices on a path (path).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Hide the progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// An integrator with a direction sampler, written INTEGRATOR-SAMPLING.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Method {
+    pub integrator: IntegratorKind,
+    pub sampling: Sampling,
+}
+
+impl std::str::FromStr for Method {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Method, String> {
+        let (i, smp) = s.split_once('-').ok_or_else(|| format!("`{s}` is not INTEGRATOR-SAMPLING"))?;
+        let method = Method {
+            integrator: IntegratorKind::from_str(i, true).map_err(|_| format!("`{i}`: no such integrator"))?,
+            sampling: Sampling::from_str(smp, true).map_err(|_| format!("`{smp}`: no such sampling"))?,
+        };
+        if method.sampling == Sampling::Light && method.integrator != IntegratorKind::Dual {
+            return Err(format!("`{s}`: light sampling alone is for dual only"));
+        }
+        Ok(method)
+    }
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = |v: &dyn Fn() -> Option<clap::builder::PossibleValue>| v().map(|p| p.get_name().to_string());
+        let i = name(&|| self.integrator.to_possible_value()).unwrap_or_default();
+        let s = name(&|| self.sampling.to_possible_value()).unwrap_or_default();
+        write!(f, "{i}-{s}")
+    }
+}
+
+/// One render of the run.
+struct Job {
+    method: Method,
+    spp: u32,
+    seed: u64,
+    path: PathBuf,
+}
+
+impl Job {
+    fn sidecar(&self) -> PathBuf {
+        self.path.with_extension("json")
+    }
+}
+
+/// A finished render's record.
+struct Row {
+    method: Method,
+    spp: u32,
+    seed: u64,
+    seconds: f64,
+    mse: f64,
+    rel_variance: Option<f64>,
+}
+
+/// What identifies a scene for reuse: everything but the settings a job sets itself.
+fn fingerprint(file: &SceneFile) -> String {
+    let mut f = file.clone();
+    f.render.spp = 1;
+    f.render.seed = 0;
+    f.render.integrator = IntegratorKind::Dual;
+    f.render.sampling = Sampling::Importance;
+    format!("{:016x}", Fnv::new().bytes(format!("{f:?}").as_bytes()).0)
+}
+
+/// Seconds a finished render took, if `job`'s files exist and were made from this scene.
+fn finished(job: &Job, scene: &str) -> Option<f64> {
+    let meta: serde_json::Value = serde_json::from_slice(&std::fs::read(job.sidecar()).ok()?).ok()?;
+    let same = meta["scene"] == scene
+        && meta["method"] == job.method.to_string()
+        && meta["spp"] == job.spp
+        && meta["seed"] == job.seed;
+    (same && job.path.exists()).then(|| meta["seconds"].as_f64()).flatten()
+}
+
+/// Renders a job (unless finished) and returns its time in seconds and whether it was reused.
+fn run_job(job: &Job, file: &SceneFile, scene: &str, cache: &Cache, aovs: bool) -> Result<(f64, bool)> {
+    if let Some(seconds) = finished(job, scene) {
+        return Ok((seconds, true));
+    }
+    let mut f = file.clone();
+    f.render.integrator = job.method.integrator;
+    f.render.sampling = job.method.sampling;
+    f.render.spp = job.spp;
+    f.render.seed = job.seed;
+    let built = f.build()?;
+    // Tables and grid into the cache first: the clock times rendering alone.
+    let mut warm = f.clone();
+    warm.render.spp = 1;
+    warm.camera.width = 1;
+    warm.camera.height = 1;
+    render_scene(&warm.build()?, cache, false)?;
+    let start = Instant::now();
+    let film = render_scene(&built, cache, false)?;
+    let seconds = start.elapsed().as_secs_f64();
+    film.write_exr(&job.path, aovs)?;
+    let meta = json!({"scene": scene, "method": job.method.to_string(), "spp": job.spp, "seed": job.seed,
+                      "seconds": seconds});
+    write_atomically(&job.sidecar(), |tmp| Ok(std::fs::write(tmp, serde_json::to_vec_pretty(&meta)?)?))?;
+    Ok((seconds, false))
+}
+
+pub fn run(args: &ConvergeArgs) -> Result<()> {
+    ensure!(!args.methods.is_empty(), "--methods: name at least one method");
+    ensure!(!args.spp.is_empty() && args.spp.iter().all(|&s| s >= 1), "--spp: give spp values of at least 1");
+    ensure!(args.seeds >= 1, "--seeds must be at least 1");
+    if let Some(r) = &args.rect {
+        ensure!(r.len() == 4 && r[0] < r[2] && r[1] < r[3], "--rect takes X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1");
+    }
+    let render_args = RenderArgs {
+        scene: args.scene.clone(),
+        width: args.width,
+        height: args.height,
+        d_f: args.d_f,
+        d_b: args.d_b,
+        max_depth: args.max_depth,
+        ..RenderArgs::default()
+    };
+    let file = scene_file(&render_args)?;
+    file.build()?; // every value checked before any work
+    let scene = fingerprint(&file);
+    let mut spps = args.spp.clone();
+    spps.sort_unstable();
+    spps.dedup();
+    let max_spp = *spps.last().expect("checked non-empty");
+    let all_dual = args.methods.iter().all(|m| m.integrator == IntegratorKind::Dual);
+    let truth_method = args.truth.unwrap_or(Method {
+        integrator: if all_dual { IntegratorKind::Dual } else { IntegratorKind::Path },
+        sampling: Sampling::Importance,
+    });
+    let truth_spp = args.truth_spp.unwrap_or(8 * max_spp);
+    let base_seed = file.render.seed;
+
+    let renders = args.output.join("renders");
+    std::fs::create_dir_all(&renders).with_context(|| format!("{}: cannot create the folder", renders.display()))?;
+    let truth = Job {
+        method: truth_method,
+        spp: truth_spp,
+        // Far from the run's seeds, so the truth's noise is independent of theirs.
+        seed: base_seed.wrapping_add(1_000_003),
+        path: args.output.join(format!("truth-{truth_method}-{truth_spp}spp.exr")),
+    };
+    let mut jobs = Vec::new();
+    for &method in &args.methods {
+        for k in 0..args.seeds as u64 {
+            for &spp in &spps {
+                let path = renders.join(format!("{method}-{spp}spp-seed{k}.exr"));
+                jobs.push(Job { method, spp, seed: base_seed.wrapping_add(k), path });
+            }
+        }
+    }
+
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .context("cannot start the worker threads")?;
+    let cache = Cache::default_location();
+    let total: u64 = jobs.iter().map(|j| j.spp as u64).sum::<u64>() + truth_spp as u64;
+    let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(total) };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{bar:40}] {percent}% of the samples, {elapsed} elapsed, ETA {eta}: {msg}",
+        )
+        .expect("static progress template")
+        .progress_chars("=> "),
+    );
+    let mut reused = 0;
+    let mut seconds = Vec::new();
+    for (i, job) in std::iter::once(&truth).chain(&jobs).enumerate() {
+        bar.set_message(format!("{} {} spp seed {} ({}/{})", job.method, job.spp, job.seed, i + 1, jobs.len() + 1));
+        let (s, was_reused) = pool.install(|| run_job(job, &file, &scene, &cache, i == 0))?;
+        reused += was_reused as usize;
+        seconds.push(s);
+        bar.inc(job.spp as u64);
+    }
+    bar.finish_and_clear();
+
+    // Measures, from the files (the same whether a render is fresh or reused).
+    let truth_film = Film::read_exr(&truth.path)?;
+    let pixels = match &args.rect {
+        Some(r) => rectangle(&truth_film, [r[0], r[1], r[2], r[3]]),
+        None => hair_pixels(&truth_film),
+    };
+    ensure!(
+        !pixels.is_empty(),
+        "no pixels to measure: the truth has no fully covered hair pixel{}",
+        if args.rect.is_some() { " in the rectangle" } else { "; give --rect" }
+    );
+    let truth_noise = mean_variance(&truth_film, &pixels);
+    let mut rows = Vec::new();
+    let mut images: BTreeMap<(Method, u64, u32), Film> = BTreeMap::new();
+    for (job, &secs) in jobs.iter().zip(&seconds[1..]) {
+        let film = Film::read_exr(&job.path)?;
+        ensure!(
+            (film.width, film.height) == (truth_film.width, truth_film.height),
+            "{}: its size differs from the truth's",
+            job.path.display()
+        );
+        let rel_variance = (job.spp % 2 == 0)
+            .then(|| images.get(&(job.method, job.seed, job.spp / 2)))
+            .flatten()
+            .map(|half| mse(&film, half, &pixels));
+        rows.push(Row {
+            method: job.method,
+            spp: job.spp,
+            seed: job.seed,
+            seconds: secs,
+            mse: mse(&film, &truth_film, &pixels),
+            rel_variance,
+        });
+        images.insert((job.method, job.seed, job.spp), film);
+    }
+    let summary = Summary { args, truth: &truth, truth_noise, pixels: pixels.len(), rows: &rows };
+    summary.write(&args.output)?;
+    println!(
+        "{} renders ({reused} reused), truth {truth_method} at {truth_spp} spp (noise {truth_noise:.3e} in MSE units), \
+         {} pixels measured; wrote {}",
+        jobs.len() + 1,
+        pixels.len(),
+        args.output.display()
+    );
+    Ok(())
+}
+
+/// Mean and sample standard deviation.
+fn mean_std(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = if v.len() > 1 { v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0) } else { 0.0 };
+    (mean, var.sqrt())
+}
+
+/// One method at one spp, over the seeds.
+struct Point {
+    spp: u32,
+    /// Mean render time.
+    seconds: f64,
+    /// Mean and standard deviation of the MSE.
+    mse: (f64, f64),
+    /// The same of the relative variance, where there is a half-spp render.
+    rel_variance: Option<(f64, f64)>,
+}
+
+/// Per method, its points by increasing spp.
+type Stats = BTreeMap<Method, Vec<Point>>;
+
+struct Summary<'a> {
+    args: &'a ConvergeArgs,
+    truth: &'a Job,
+    truth_noise: f64,
+    pixels: usize,
+    rows: &'a [Row],
+}
+
+impl Summary<'_> {
+    fn stats(&self) -> Stats {
+        let mut out: Stats = BTreeMap::new();
+        let mut groups: BTreeMap<(Method, u32), Vec<&Row>> = BTreeMap::new();
+        for r in self.rows {
+            groups.entry((r.method, r.spp)).or_default().push(r);
+        }
+        for ((method, spp), rows) in groups {
+            let seconds = mean_std(&rows.iter().map(|r| r.seconds).collect::<Vec<_>>()).0;
+            let mse = mean_std(&rows.iter().map(|r| r.mse).collect::<Vec<_>>());
+            let rv: Vec<f64> = rows.iter().filter_map(|r| r.rel_variance).collect();
+            let rel_variance = (!rv.is_empty()).then(|| mean_std(&rv));
+            out.entry(method).or_default().push(Point { spp, seconds, mse, rel_variance });
+        }
+        out
+    }
+
+    fn write(&self, dir: &Path) -> Result<()> {
+        let mut csv = String::from("method,spp,seed,seconds,mse,rel_variance\n");
+        for r in self.rows {
+            let rv = r.rel_variance.map(|v| format!("{v:e}")).unwrap_or_default();
+            writeln!(csv, "{},{},{},{},{:e},{rv}", r.method, r.spp, r.seed, r.seconds, r.mse)?;
+        }
+        write_atomically(&dir.join("results.csv"), |tmp| Ok(std::fs::write(tmp, &csv)?))?;
+
+        let rows: Vec<_> = self
+            .rows
+            .iter()
+            .map(|r| {
+                json!({"method": r.method.to_string(), "spp": r.spp, "seed": r.seed, "seconds": r.seconds,
+                       "mse": r.mse, "rel_variance": r.rel_variance})
+            })
+            .collect();
+        let doc = json!({
+            "scene": self.args.scene.as_ref().map_or("scenes/default.json".into(), |p| p.display().to_string()),
+            "pixels": self.pixels,
+            "region": self.args.rect.as_ref().map_or("hair pixels (truth alpha = 1)".to_string(), |r| format!("{r:?}")),
+            "truth": {"method": self.truth.method.to_string(), "spp": self.truth.spp, "seed": self.truth.seed,
+                      "noise_mse": self.truth_noise},
+            "rows": rows,
+        });
+        write_atomically(&dir.join("results.json"), |tmp| Ok(std::fs::write(tmp, serde_json::to_vec_pretty(&doc)?)?))?;
+
+        let stats = self.stats();
+        write_atomically(&dir.join("summary.md"), |tmp| Ok(std::fs::write(tmp, self.markdown(&stats))?))?;
+        for ext in ["png", "svg"] {
+            draw_chart(&stats, false, self.truth_noise, &dir.join(format!("error_vs_spp.{ext}")))?;
+            draw_chart(&stats, true, self.truth_noise, &dir.join(format!("error_vs_time.{ext}")))?;
+        }
+        Ok(())
+    }
+
+    fn markdown(&self, stats: &Stats) -> String {
+        let mut md = String::new();
+        let methods: Vec<&Method> = stats.keys().collect();
+        let seeds = self.args.seeds;
+        let _ = writeln!(md, "# Convergence\n");
+        let _ = writeln!(
+            md,
+            "Ground truth: {} at {} spp; its own noise is {:.3e} in MSE units, so MSE values near it are \
+             noise. Measured over {} pixels ({}). Values are mean +- standard deviation over {seeds} seed(s), \
+             in linear radiance squared.\n",
+            self.truth.method,
+            self.truth.spp,
+            self.truth_noise,
+            self.pixels,
+            if self.args.rect.is_some() { "the given rectangle" } else { "fully covered hair pixels" }
+        );
+        let table = |md: &mut String, title: &str, cell: &dyn Fn(&Point) -> String| {
+            let _ = writeln!(md, "## {title}\n");
+            let _ = writeln!(md, "| spp | {} |", methods.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(" | "));
+            let _ = writeln!(md, "|---|{}", "---|".repeat(methods.len()));
+            let spps: std::collections::BTreeSet<u32> = stats.values().flatten().map(|p| p.spp).collect();
+            for spp in spps {
+                let cells: Vec<String> = methods
+                    .iter()
+                    .map(|m| stats[m].iter().find(|p| p.spp == spp).map_or(String::new(), cell))
+                    .collect();
+                let _ = writeln!(md, "| {spp} | {} |", cells.join(" | "));
+            }
+            let _ = writeln!(md);
+        };
+        table(&mut md, "Relative variance between successive doublings (thesis Table 6.1)", &|p| {
+            p.rel_variance.map_or("-".into(), |(m, d)| format!("{m:.3e} +- {d:.1e}"))
+        });
+        table(&mut md, "Mean squared error against the ground truth (thesis Table 6.2)", &|p| {
+            format!("{:.3e} +- {:.1e}", p.mse.0, p.mse.1)
+        });
+        table(&mut md, "Render time (seconds, mean)", &|p| format!("{:.3}", p.seconds));
+        md
+    }
+}
+
+/// Line colors of the methods, in order.
+const COLORS: [RGBColor; 7] = [
+    RGBColor(210, 40, 40),
+    RGBColor(40, 70, 210),
+    RGBColor(30, 150, 50),
+    RGBColor(230, 140, 0),
+    RGBColor(140, 40, 170),
+    RGBColor(0, 150, 160),
+    RGBColor(90, 90, 90),
+];
+
+/// Log-log chart of MSE (mean over seeds, bars +- one standard deviation) against spp, or against
+/// mean render time, one line per method, with the truth's noise level dashed.
+fn draw_chart(stats: &Stats, by_time: bool, truth_noise: f64, path: &Path) -> Result<()> {
+    const SIZE: (u32, u32) = (1100, 760);
+    let title = if by_time { "error vs. wall time (speed vs. accuracy)" } else { "error vs. samples per pixel" };
+    let x_label = if by_time { "render time (s)" } else { "samples per pixel" };
+    let draw = |root: &DrawingArea<_, Shift>| -> Result<()> {
+        chart(root, stats, by_time, truth_noise, title, x_label).map_err(|e| anyhow!("drawing the chart failed: {e}"))
+    };
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("png") => {
+            let mut buf = vec![255u8; (SIZE.0 * SIZE.1 * 3) as usize];
+            draw(&BitMapBackend::with_buffer(&mut buf, SIZE).into_drawing_area())?;
+            let image = image::RgbImage::from_raw(SIZE.0, SIZE.1, buf).ok_or_else(|| anyhow!("chart buffer size"))?;
+            crate::output::write_png(path, &image)
+        }
+        Some("svg") => {
+            let mut svg = String::new();
+            chart(
+                &SVGBackend::with_string(&mut svg, SIZE).into_drawing_area(),
+                stats,
+                by_time,
+                truth_noise,
+                title,
+                x_label,
+            )
+            .map_err(|e| anyhow!("drawing the chart failed: {e}"))?;
+            write_atomically(path, |tmp| Ok(std::fs::write(tmp, &svg)?))
+        }
+        _ => bail!("{}: charts are .png or .svg", path.display()),
+    }
+}
+
+fn chart<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    stats: &Stats,
+    by_time: bool,
+    truth_noise: f64,
+    title: &str,
+    x_label: &str,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    register_fonts();
+    root.fill(&WHITE)?;
+    let x = |p: &Point| if by_time { p.seconds.max(1e-6) } else { p.spp as f64 };
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64);
+    for p in stats.values().flatten() {
+        x0 = x0.min(x(p));
+        x1 = x1.max(x(p));
+        y0 = y0.min((p.mse.0 - p.mse.1).max(p.mse.0 * 0.1));
+        y1 = y1.max(p.mse.0 + p.mse.1);
+    }
+    if truth_noise > 0.0 {
+        y0 = y0.min(truth_noise);
+    }
+    let (y0, y1) = ((y0 * 0.7).max(1e-30), (y1 * 1.4).max(1e-29));
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 22))
+        .margin(16)
+        .x_label_area_size(48)
+        .y_label_area_size(80)
+        .build_cartesian_2d((x0 * 0.8..x1 * 1.25).log_scale(), (y0..y1).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_desc("mean squared error vs. ground truth")
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .label_style(("sans-serif", 14))
+        .draw()?;
+    for (k, (method, series)) in stats.iter().enumerate() {
+        let color = COLORS[k % COLORS.len()];
+        let line: Vec<(f64, f64)> = series.iter().map(|p| (x(p), p.mse.0)).collect();
+        chart
+            .draw_series(LineSeries::new(line.clone(), color.stroke_width(2)))?
+            .label(method.to_string())
+            .legend(move |(px, py)| PathElement::new(vec![(px, py), (px + 24, py)], color.stroke_width(2)));
+        chart.draw_series(line.iter().map(|&p| Circle::new(p, 3, color.filled())))?;
+        chart.draw_series(series.iter().map(|p| {
+            let (mean, std) = p.mse;
+            ErrorBar::new_vertical(x(p), (mean - std).max(y0), mean, mean + std, color.stroke_width(1), 6)
+        }))?;
+    }
+    if truth_noise > 0.0 {
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(x0 * 0.8, truth_noise), (x1 * 1.25, truth_noise)],
+                8,
+                6,
+                BLACK.stroke_width(1),
+            ))?
+            .label("ground truth's own noise")
+            .legend(|(px, py)| PathElement::new(vec![(px, py), (px + 24, py)], BLACK.stroke_width(1)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.9))
+        .label_font(("sans-serif", 14))
+        .draw()?;
+    root.present()?;
+    Ok(())
+}

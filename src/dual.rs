@@ -61,6 +61,7 @@ const MIN_VARIANCE: f64 = 1e-4;
 /// multiple scattering, so that `importance` is then exactly `single`'s fiber sampler.
 const DEFENSIVE: f64 = 0.02;
 
+/// The `dual` integrator: the scene, the fiber, its tables and the hair's density grid.
 pub struct DualScattering<'a> {
     pub fibers: &'a Fibers,
     pub fiber: &'a dyn SpreadScattering,
@@ -102,6 +103,7 @@ impl<'a> Shading<'a> {
         let (sin_i, cos_i) = sin_cos_theta(wi);
         let dphi = wrap_angle(phi(wi) - phi(self.wo)).abs();
         if !dual.fibers.occluded(self.from, d.as_vec3(), f32::INFINITY) {
+            // Fully lit (directFraction = 1, T_f = 1): F_direct = f_s + d_b f_back.
             let mut f = dual.fiber.eval(self.wo, wi, self.h);
             if dual.d_b > 0.0 && dphi < FRAC_PI_2 {
                 let row = dual.tables.at(sin_i.asin());
@@ -112,6 +114,8 @@ impl<'a> Shading<'a> {
         if dual.d_f == 0.0 {
             return Rgb::ZERO;
         }
+        // In shadow (directFraction = 0): F_scatter = T_f d_f (f_s^G + pi d_b f_back^G) with
+        // T_f = d_f a_f^n and sigma_f^2 = n beta_f^2 (thesis eqs. 3.18 and 3.20).
         let row = dual.tables.at(sin_i.asin());
         let n = dual.grid.fibers_crossed(self.from.as_dvec3(), d, f64::INFINITY);
         let t_f = Rgb(row[Quantity::AF as usize].0.map(|a| dual.d_f * a.powf(n)));
@@ -140,17 +144,20 @@ impl<'a> Shading<'a> {
         }))
     }
 
-    /// A direction (local) from F's sampler; `None` for `light` sampling.
-    fn sample(&self, u: [f64; 4]) -> Option<DVec3> {
+    /// A direction (local) from F's sampler and its density; `None` for `light` sampling.
+    fn sample(&self, u: [f64; 4]) -> Option<(DVec3, f64)> {
         match self.dual.sampling {
             Sampling::Light => None,
-            Sampling::Uniform => Some(uniform_sphere([u[0], u[1]])),
+            Sampling::Uniform => Some((uniform_sphere([u[0], u[1]]), 1.0 / SPHERE)),
             Sampling::Importance => {
                 let (k, u0) = pick(&[1.0 - self.uniform, self.uniform], u[0]);
                 if k == 0 {
-                    self.dual.fiber.sample(self.wo, self.h, [u0, u[1], u[2], u[3]]).map(|s| s.wi)
+                    // The fiber sampler's own density saves evaluating it again.
+                    let s = self.dual.fiber.sample(self.wo, self.h, [u0, u[1], u[2], u[3]])?;
+                    Some((s.wi, self.mixture_pdf(s.pdf)))
                 } else {
-                    Some(uniform_sphere([u0, u[1]]))
+                    let wi = uniform_sphere([u0, u[1]]);
+                    Some((wi, self.pdf(wi)))
                 }
             }
         }
@@ -161,11 +168,13 @@ impl<'a> Shading<'a> {
         match self.dual.sampling {
             Sampling::Light => 0.0,
             Sampling::Uniform => 1.0 / SPHERE,
-            Sampling::Importance => {
-                let fiber = (1.0 - self.uniform) * self.dual.fiber.pdf(self.wo, wi, self.h);
-                if self.uniform > 0.0 { fiber + self.uniform / SPHERE } else { fiber }
-            }
+            Sampling::Importance => self.mixture_pdf(self.dual.fiber.pdf(self.wo, wi, self.h)),
         }
+    }
+
+    /// The `importance` mixture's density from the fiber sampler's.
+    fn mixture_pdf(&self, fiber_pdf: f64) -> f64 {
+        if self.uniform > 0.0 { (1.0 - self.uniform) * fiber_pdf + self.uniform / SPHERE } else { fiber_pdf }
     }
 
     /// Radiance from a light sample, MIS-weighted against F's sampler.
@@ -199,8 +208,7 @@ impl Integrator for DualScattering<'_> {
         // Drawn even for light sampling alone, so that every strategy's pixel streams stay in step
         // (renders with the same seed then differ only through the strategy).
         let u: [f64; 4] = rng.random();
-        if let Some(wi) = shading.sample(u) {
-            let pdf = shading.pdf(wi);
+        if let Some((wi, pdf)) = shading.sample(u) {
             if pdf > 0.0 {
                 let d = shading.frame.to_world(wi).normalize();
                 radiance += shading.f(wi, d) / pdf * seen_lights(self.lights, d, pdf);

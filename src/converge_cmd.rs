@@ -63,8 +63,10 @@ pub struct ConvergeArgs {
     /// Output folder.
     #[arg(short, long, value_name = "DIR")]
     pub output: PathBuf,
+    /// Image width in pixels (overrides the scene).
     #[arg(long)]
     pub width: Option<usize>,
+    /// Image height in pixels (overrides the scene).
     #[arg(long)]
     pub height: Option<usize>,
     /// Forward scattering density factor d_f (dual).

@@ -36,6 +36,13 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) ->
         .tempfile_in(dir)
         .with_context(|| format!("{}: cannot create a file in this folder", path.display()))?;
     write(tmp.path()).with_context(|| format!("{}: writing failed", path.display()))?;
+    // Temporary files are private (0600); a finished output is an ordinary file (0644).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(tmp.path(), std::fs::Permissions::from_mode(0o644))
+            .with_context(|| format!("{}: cannot set the file's permissions", path.display()))?;
+    }
     tmp.persist(path).with_context(|| format!("{}: cannot move the finished file into place", path.display()))?;
     Ok(())
 }

@@ -169,6 +169,12 @@ fn render_command_writes_exr_and_png_or_nothing() {
         .unwrap();
     assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
     assert!(out.exists() && out.with_extension("exr").exists());
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(&out).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o644, "outputs are ordinary files, not private temporaries");
+    }
     let bad = dir.path().join("bad");
     std::fs::create_dir(&bad).unwrap();
     let fail = Command::new(env!("CARGO_BIN_EXE_dualhair"))

@@ -17,7 +17,7 @@
 use dualhair::cache::Cache;
 use dualhair::compare::{hair_pixels, mean_luminance, relative_noise, relative_rmse};
 use dualhair::film::Film;
-use dualhair::render_cmd::render_scene;
+use dualhair::render_cmd::{DualInputs, render_prepared};
 use dualhair::scene::{EnvSpec, IntegratorKind, OneOrRgb, SceneFile, SunSpec};
 use std::path::Path;
 use std::time::Instant;
@@ -26,17 +26,13 @@ fn env_or(key: &str, default: u32) -> u32 {
     std::env::var(key).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
 }
 
-/// Renders once at 1 spp so that the tables and the density grid are in the cache before timing.
-fn warm(file: &SceneFile, cache: &Cache) {
-    let mut f = file.clone();
-    f.render.spp = 1;
-    render_scene(&f.build().unwrap(), cache, false).unwrap();
-}
-
+/// Renders a scene file, timing the render alone (not building the scene or loading the tables
+/// and grid, which the cache holds after the first render).
 fn timed_render(file: &SceneFile, cache: &Cache) -> (Film, f64) {
     let scene = file.build().unwrap();
+    let inputs = DualInputs::load(&scene, cache, false).unwrap();
     let start = Instant::now();
-    let film = render_scene(&scene, cache, false).unwrap();
+    let film = render_prepared(&scene, inputs.as_ref(), false).unwrap();
     (film, start.elapsed().as_secs_f64())
 }
 
@@ -55,10 +51,7 @@ fn sweep(
         let mut f = file.clone();
         f.render.spp = spp;
         f.render.seed = 1000 + spp as u64;
-        let scene = f.build().unwrap();
-        let start = Instant::now();
-        let film = render_scene(&scene, cache, false).unwrap();
-        let secs = start.elapsed().as_secs_f64();
+        let (film, secs) = timed_render(&f, cache);
         out.push((spp, secs, relative_rmse(&film, reference, pixels)));
         if spp * 2 > max_spp {
             return (out, film);
@@ -113,7 +106,6 @@ fn main() {
 
             let mut dual = file.clone();
             dual.render.integrator = IntegratorKind::Dual;
-            warm(&dual, &cache);
             let (dual_sweep, converged) = sweep(&dual, &cache, dual_spp, &reference, &pixels);
             let error = relative_rmse(&converged, &reference, &pixels);
             let noise = relative_noise(&converged, &reference, &pixels);

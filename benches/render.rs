@@ -5,7 +5,7 @@
 use dualhair::cache::Cache;
 use dualhair::camera::Camera;
 use dualhair::fibers::Fibers;
-use dualhair::render_cmd::render_scene;
+use dualhair::render_cmd::{DualInputs, render_prepared};
 use dualhair::scene::{IntegratorKind, SceneFile};
 use glam::Vec3;
 use precompute::strands::{Generator, Scalp, read_hair};
@@ -88,10 +88,10 @@ fn main() {
         swatch.render.integrator = integrator;
         let scene = swatch.build().unwrap();
         // Tables and grid first, so that only rendering is timed.
-        render_scene(&scene, &cache, false).unwrap();
+        let inputs = DualInputs::load(&scene, &cache, false).unwrap();
         let paths = scene.camera.width * scene.camera.height * 16;
         rate(&format!("{integrator:?}, backlit swatch (camera samples)"), paths, || {
-            let film = render_scene(&scene, &cache, false).unwrap();
+            let film = render_prepared(&scene, inputs.as_ref(), false).unwrap();
             film.alpha.iter().filter(|&&a| a > 0.0).count() * 16
         });
     }

@@ -20,7 +20,7 @@ use crate::compare::{hair_pixels, mean_variance, mse, rectangle};
 use crate::film::Film;
 use crate::output::write_atomically;
 use crate::plot::register_fonts;
-use crate::render_cmd::{RenderArgs, render_scene, scene_file};
+use crate::render_cmd::{DualInputs, RenderArgs, render_prepared, scene_file};
 use crate::scene::{IntegratorKind, Sampling, SceneFile};
 use anyhow::{Context, Result, anyhow, bail, ensure};
 use clap::ValueEnum;
@@ -163,8 +163,9 @@ fn finished(job: &Job, scene: &str) -> Option<f64> {
 }
 
 /// Renders a job (unless finished) and returns its time in seconds and whether it was reused.
-fn run_job(job: &Job, file: &SceneFile, scene: &str, cache: &Cache, aovs: bool) -> Result<(f64, bool)> {
-    if let Some(seconds) = finished(job, scene) {
+/// Only rendering is timed: building the scene and loading the tables and grid are not.
+fn run_job(job: &Job, file: &SceneFile, fingerprint: &str, cache: &Cache, aovs: bool) -> Result<(f64, bool)> {
+    if let Some(seconds) = finished(job, fingerprint) {
         return Ok((seconds, true));
     }
     let mut f = file.clone();
@@ -172,18 +173,13 @@ fn run_job(job: &Job, file: &SceneFile, scene: &str, cache: &Cache, aovs: bool) 
     f.render.sampling = job.method.sampling;
     f.render.spp = job.spp;
     f.render.seed = job.seed;
-    let built = f.build()?;
-    // Tables and grid into the cache first: the clock times rendering alone.
-    let mut warm = f.clone();
-    warm.render.spp = 1;
-    warm.camera.width = 1;
-    warm.camera.height = 1;
-    render_scene(&warm.build()?, cache, false)?;
+    let scene = f.build()?;
+    let inputs = DualInputs::load(&scene, cache, false)?;
     let start = Instant::now();
-    let film = render_scene(&built, cache, false)?;
+    let film = render_prepared(&scene, inputs.as_ref(), false)?;
     let seconds = start.elapsed().as_secs_f64();
     film.write_exr(&job.path, aovs)?;
-    let meta = json!({"scene": scene, "method": job.method.to_string(), "spp": job.spp, "seed": job.seed,
+    let meta = json!({"scene": fingerprint, "method": job.method.to_string(), "spp": job.spp, "seed": job.seed,
                       "seconds": seconds});
     write_atomically(&job.sidecar(), |tmp| Ok(std::fs::write(tmp, serde_json::to_vec_pretty(&meta)?)?))?;
     Ok((seconds, false))

@@ -79,8 +79,10 @@ pub struct DualScattering<'a> {
 struct Shading<'a> {
     dual: &'a DualScattering<'a>,
     frame: Frame,
-    /// Toward the camera, local frame.
+    /// Toward the camera, local frame, with its inclination and azimuth.
     wo: DVec3,
+    theta_o: f64,
+    phi_o: f64,
     h: f64,
     /// Origin of shadow rays and grid marches.
     from: Vec3,
@@ -94,14 +96,15 @@ impl<'a> Shading<'a> {
         let wo = frame.to_local(-dir);
         let h = h_offset(wo, frame.to_local(hit.normal.as_dvec3()));
         let uniform = DEFENSIVE * dual.d_f.max(dual.d_b);
-        Shading { dual, frame, wo, h, from: spawn_point(hit), uniform }
+        let (theta_o, phi_o) = (sin_cos_theta(wo).0.asin(), phi(wo));
+        Shading { dual, frame, wo, theta_o, phi_o, h, from: spawn_point(hit), uniform }
     }
 
     /// F(wo, wi) toward the light direction `wi` (local) = `d` (world).
     fn f(&self, wi: DVec3, d: DVec3) -> Rgb {
         let dual = self.dual;
         let (sin_i, cos_i) = sin_cos_theta(wi);
-        let dphi = wrap_angle(phi(wi) - phi(self.wo)).abs();
+        let dphi = wrap_angle(phi(wi) - self.phi_o).abs();
         if !dual.fibers.occluded(self.from, d.as_vec3(), f32::INFINITY) {
             // Fully lit (directFraction = 1, T_f = 1): F_direct = f_s + d_b f_back.
             let mut f = dual.fiber.eval(self.wo, wi, self.h);
@@ -131,14 +134,13 @@ impl<'a> Shading<'a> {
     /// A_b(theta) M(theta_i; 2 Delta_b - theta_o, 4 (sigma_b^2 + extra)) per channel: f_back
     /// without its azimuthal factor. `extra` is a theta_h variance, like sigma_b^2.
     fn backscatter(&self, row: &[Rgb; 9], sin_i: f64, cos_i: f64, extra: Rgb) -> Rgb {
-        let theta_o = sin_cos_theta(self.wo).0.asin();
         Rgb(std::array::from_fn(|c| {
             let a = row[Quantity::ABack as usize].0[c];
             if a <= 0.0 {
                 return 0.0;
             }
             let sigma = row[Quantity::SigmaB as usize].0[c];
-            let (s, co) = (theta_o - 2.0 * row[Quantity::DeltaB as usize].0[c]).sin_cos();
+            let (s, co) = (self.theta_o - 2.0 * row[Quantity::DeltaB as usize].0[c]).sin_cos();
             let lobe = Longitudinal::new((4.0 * (sigma * sigma + extra.0[c])).max(MIN_VARIANCE));
             a * lobe.eval(cos_i, sin_i, co, s)
         }))

@@ -8,8 +8,9 @@ use crate::output::ImageFormat;
 use crate::render::render;
 use crate::scene::{IntegratorKind, Sampling, Scene, SceneFile};
 use anyhow::{Context, Result, bail};
-use precompute::density::read_vdb;
+use precompute::density::{DensityGrid, read_vdb};
 use precompute::fiber::{Chiang, FiberModel, UniformSampled};
+use precompute::tables::Tables;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -92,33 +93,59 @@ pub fn scene_file(args: &RenderArgs) -> Result<SceneFile> {
     Ok(file)
 }
 
+/// What the dual integrator precomputes for a scene: the fiber's tables and the hair's density
+/// grid.
+pub struct DualInputs {
+    pub tables: Tables,
+    pub grid: DensityGrid,
+}
+
+impl DualInputs {
+    /// The scene's inputs from `cache` (computed there when missing), or its own density grid
+    /// file; `None` unless the scene renders with `dual`.
+    pub fn load(scene: &Scene, cache: &Cache, progress: bool) -> Result<Option<DualInputs>> {
+        if scene.render.integrator != IntegratorKind::Dual {
+            return Ok(None);
+        }
+        let d = &scene.dual;
+        let tables = cache.tables(&scene.fiber, d.d_b, progress)?;
+        let grid = match &d.density_grid {
+            Some(path) => read_vdb(path, "density")?,
+            None => cache.density(&scene.strands, d.voxel_size)?,
+        };
+        Ok(Some(DualInputs { tables, grid }))
+    }
+}
+
 /// Renders a built scene with its own settings, on the current rayon pool. The dual integrator's
 /// tables and density grid come from `cache` (computed there when missing).
 pub fn render_scene(scene: &Scene, cache: &Cache, progress: bool) -> Result<Film> {
+    render_prepared(scene, DualInputs::load(scene, cache, progress)?.as_ref(), progress)
+}
+
+/// Renders a built scene with inputs already loaded (see [`DualInputs::load`]): rendering alone,
+/// what comparisons time.
+pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool) -> Result<Film> {
     let chiang = Chiang::new(&scene.fiber)?;
     let (spp, seed) = (scene.render.spp, scene.render.seed);
+    if let Some(inputs) = dual {
+        let d = &scene.dual;
+        let dual = DualScattering {
+            fibers: &scene.fibers,
+            fiber: &chiang,
+            lights: &scene.lights,
+            tables: &inputs.tables,
+            grid: &inputs.grid,
+            d_f: d.d_f,
+            d_b: d.d_b,
+            sampling: scene.render.sampling,
+        };
+        return Ok(render(&scene.camera, &dual, spp, seed, progress));
+    }
     let max_depth = match scene.render.integrator {
         IntegratorKind::Single => 1,
         IntegratorKind::Path => scene.render.max_depth,
-        IntegratorKind::Dual => {
-            let d = &scene.dual;
-            let tables = cache.tables(&scene.fiber, d.d_b, progress)?;
-            let grid = match &d.density_grid {
-                Some(path) => read_vdb(path, "density")?,
-                None => cache.density(&scene.strands, d.voxel_size)?,
-            };
-            let dual = DualScattering {
-                fibers: &scene.fibers,
-                fiber: &chiang,
-                lights: &scene.lights,
-                tables: &tables,
-                grid: &grid,
-                d_f: d.d_f,
-                d_b: d.d_b,
-                sampling: scene.render.sampling,
-            };
-            return Ok(render(&scene.camera, &dual, spp, seed, progress));
-        }
+        IntegratorKind::Dual => bail!("the dual integrator needs its tables and density grid"),
     };
     let uniform = UniformSampled(chiang.clone());
     let fiber: &dyn FiberModel = match scene.render.sampling {

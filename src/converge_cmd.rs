@@ -322,6 +322,8 @@ struct Point {
     seconds: f64,
     /// Mean and standard deviation of the MSE.
     mse: (f64, f64),
+    /// Number of seeds behind the means.
+    seeds: usize,
     /// The same of the relative variance, where there is a half-spp render.
     rel_variance: Option<(f64, f64)>,
 }
@@ -349,7 +351,7 @@ impl Summary<'_> {
             let mse = mean_std(&rows.iter().map(|r| r.mse).collect::<Vec<_>>());
             let rv: Vec<f64> = rows.iter().filter_map(|r| r.rel_variance).collect();
             let rel_variance = (!rv.is_empty()).then(|| mean_std(&rv));
-            out.entry(method).or_default().push(Point { spp, seconds, mse, rel_variance });
+            out.entry(method).or_default().push(Point { spp, seconds, mse, seeds: rows.len(), rel_variance });
         }
         out
     }
@@ -441,8 +443,11 @@ const COLORS: [RGBColor; 7] = [
     RGBColor(90, 90, 90),
 ];
 
-/// Log-log chart of MSE (mean over seeds, bars +- one standard deviation) against spp, or against
-/// mean render time, one line per method, with the truth's noise level dashed.
+/// Log-log chart of MSE (mean over seeds, bars +- its standard error) against spp, or against mean
+/// render time, one line per method, with the truth's noise level dashed. The bars show how well
+/// the plotted mean is known: a spread of +- one standard deviation of a skewed, heavy-tailed
+/// MSE (uniform sampling at low spp) reaches below zero, off a log axis. A bar reaching below a
+/// tenth of its mean (two seeds far apart) is cut there.
 fn draw_chart(stats: &Stats, by_time: bool, truth_noise: f64, path: &Path) -> Result<()> {
     const SIZE: (u32, u32) = (1100, 760);
     let title = if by_time { "error vs. wall time (speed vs. accuracy)" } else { "error vs. samples per pixel" };
@@ -486,11 +491,16 @@ fn chart<DB: DrawingBackend>(
     root.fill(&WHITE)?;
     let x = |p: &Point| if by_time { p.seconds.max(1e-6) } else { p.spp as f64 };
     let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64);
+    let bar = |p: &Point| {
+        let (mean, std) = p.mse;
+        let error = std / (p.seeds as f64).sqrt();
+        ((mean - error).max(mean * 0.1), mean + error)
+    };
     for p in stats.values().flatten() {
         x0 = x0.min(x(p));
         x1 = x1.max(x(p));
-        y0 = y0.min((p.mse.0 - p.mse.1).max(p.mse.0 * 0.1));
-        y1 = y1.max(p.mse.0 + p.mse.1);
+        y0 = y0.min(bar(p).0);
+        y1 = y1.max(bar(p).1);
     }
     if truth_noise > 0.0 {
         y0 = y0.min(truth_noise);
@@ -505,7 +515,7 @@ fn chart<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .x_desc(x_label)
-        .y_desc("mean squared error vs. ground truth")
+        .y_desc("mean squared error vs. ground truth (bars: standard error over seeds)")
         .y_label_formatter(&|v| format!("{v:.0e}"))
         .label_style(("sans-serif", 14))
         .draw()?;
@@ -518,8 +528,8 @@ fn chart<DB: DrawingBackend>(
             .legend(move |(px, py)| PathElement::new(vec![(px, py), (px + 24, py)], color.stroke_width(2)));
         chart.draw_series(line.iter().map(|&p| Circle::new(p, 3, color.filled())))?;
         chart.draw_series(series.iter().map(|p| {
-            let (mean, std) = p.mse;
-            ErrorBar::new_vertical(x(p), (mean - std).max(y0), mean, mean + std, color.stroke_width(1), 6)
+            let (low, high) = bar(p);
+            ErrorBar::new_vertical(x(p), low, p.mse.0, high, color.stroke_width(1), 6)
         }))?;
     }
     if truth_noise > 0.0 {

@@ -99,7 +99,15 @@ fn sampling_strategies_converge_to_the_same_image() {
 
 #[test]
 fn every_bundled_scene_renders_finite_with_dual() {
-    for name in ["default", "blond", "brown", "black", "backlit_swatch", "furnace"] {
+    let mut names: Vec<String> = std::fs::read_dir(format!("{ROOT}/scenes"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert!(names.len() >= 7, "bundled scenes missing: {names:?}");
+    for name in &names {
         let mut file = bundled(name, 24, 2);
         file.render.integrator = IntegratorKind::Dual;
         let film = render(&file);

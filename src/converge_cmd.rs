@@ -21,7 +21,7 @@ use crate::film::Film;
 use crate::output::write_atomically;
 use crate::plot::register_fonts;
 use crate::render_cmd::{DualInputs, RenderArgs, render_prepared, scene_file};
-use crate::scene::{IntegratorKind, Sampling, SceneFile};
+use crate::scene::{IntegratorKind, Sampling, Scene, SceneFile};
 use anyhow::{Context, Result, anyhow, bail, ensure};
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -162,21 +162,36 @@ fn finished(job: &Job, scene: &str) -> Option<f64> {
     (same && job.path.exists()).then(|| meta["seconds"].as_f64()).flatten()
 }
 
+/// The run's scene, built once, and the dual integrator's inputs, loaded at its first `dual` job.
+struct Prepared<'a> {
+    scene: Scene,
+    fingerprint: String,
+    cache: &'a Cache,
+    dual: Option<DualInputs>,
+}
+
 /// Renders a job (unless finished) and returns its time in seconds and whether it was reused.
 /// Only rendering is timed: building the scene and loading the tables and grid are not.
-fn run_job(job: &Job, file: &SceneFile, fingerprint: &str, cache: &Cache, aovs: bool) -> Result<(f64, bool)> {
+fn run_job(job: &Job, prepared: &mut Prepared, aovs: bool) -> Result<(f64, bool)> {
+    let fingerprint = &prepared.fingerprint;
     if let Some(seconds) = finished(job, fingerprint) {
         return Ok((seconds, true));
     }
-    let mut f = file.clone();
-    f.render.integrator = job.method.integrator;
-    f.render.sampling = job.method.sampling;
-    f.render.spp = job.spp;
-    f.render.seed = job.seed;
-    let scene = f.build()?;
-    let inputs = DualInputs::load(&scene, cache, false)?;
+    let r = &mut prepared.scene.render;
+    r.integrator = job.method.integrator;
+    r.sampling = job.method.sampling;
+    r.spp = job.spp;
+    r.seed = job.seed;
+    let dual = if job.method.integrator == IntegratorKind::Dual {
+        if prepared.dual.is_none() {
+            prepared.dual = DualInputs::load(&prepared.scene, prepared.cache, false)?;
+        }
+        prepared.dual.as_ref()
+    } else {
+        None
+    };
     let start = Instant::now();
-    let film = render_prepared(&scene, inputs.as_ref(), false)?;
+    let film = render_prepared(&prepared.scene, dual, false)?;
     let seconds = start.elapsed().as_secs_f64();
     film.write_exr(&job.path, aovs)?;
     let meta = json!({"scene": fingerprint, "method": job.method.to_string(), "spp": job.spp, "seed": job.seed,
@@ -202,8 +217,7 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
         ..RenderArgs::default()
     };
     let file = scene_file(&render_args)?;
-    file.build()?; // every value checked before any work
-    let scene = fingerprint(&file);
+    let scene = file.build()?; // every value checked before any work
     let mut spps = args.spp.clone();
     spps.sort_unstable();
     spps.dedup();
@@ -240,6 +254,7 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
         .build()
         .context("cannot start the worker threads")?;
     let cache = Cache::default_location();
+    let mut prepared = Prepared { scene, fingerprint: fingerprint(&file), cache: &cache, dual: None };
     let total: u64 = jobs.iter().map(|j| j.spp as u64).sum::<u64>() + truth_spp as u64;
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(total) };
     bar.set_style(
@@ -253,7 +268,7 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
     let mut seconds = Vec::new();
     for (i, job) in std::iter::once(&truth).chain(&jobs).enumerate() {
         bar.set_message(format!("{} {} spp seed {} ({}/{})", job.method, job.spp, job.seed, i + 1, jobs.len() + 1));
-        let (s, was_reused) = pool.install(|| run_job(job, &file, &scene, &cache, i == 0))?;
+        let (s, was_reused) = pool.install(|| run_job(job, &mut prepared, i == 0))?;
         reused += was_reused as usize;
         seconds.push(s);
         bar.inc(job.spp as u64);
@@ -273,18 +288,22 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
     );
     let truth_noise = mean_variance(&truth_film, &pixels);
     let mut rows = Vec::new();
-    let mut images: BTreeMap<(Method, u64, u32), Film> = BTreeMap::new();
+    // The images of the current method and seed by spp: jobs come grouped by method and seed, so
+    // only one group's images are ever held.
+    let (mut group, mut images) = (None, BTreeMap::<u32, Film>::new());
     for (job, &secs) in jobs.iter().zip(&seconds[1..]) {
+        if group != Some((job.method, job.seed)) {
+            group = Some((job.method, job.seed));
+            images.clear();
+        }
         let film = Film::read_exr(&job.path)?;
         ensure!(
             (film.width, film.height) == (truth_film.width, truth_film.height),
             "{}: its size differs from the truth's",
             job.path.display()
         );
-        let rel_variance = (job.spp % 2 == 0)
-            .then(|| images.get(&(job.method, job.seed, job.spp / 2)))
-            .flatten()
-            .map(|half| mse(&film, half, &pixels));
+        let rel_variance =
+            (job.spp % 2 == 0).then(|| images.get(&(job.spp / 2))).flatten().map(|half| mse(&film, half, &pixels));
         rows.push(Row {
             method: job.method,
             spp: job.spp,
@@ -293,7 +312,7 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
             mse: mse(&film, &truth_film, &pixels),
             rel_variance,
         });
-        images.insert((job.method, job.seed, job.spp), film);
+        images.insert(job.spp, film);
     }
     let summary = Summary { args, truth: &truth, truth_noise, pixels: pixels.len(), rows: &rows };
     summary.write(&args.output)?;

@@ -41,7 +41,9 @@
 //! 4 to 32 spp, by up to 17%, because light sampling already covers those broad terms well.
 
 use crate::fibers::{Fibers, Hit};
-use crate::integrator::{CameraSample, Frame, Integrator, background, power_heuristic, seen_lights, spawn_point};
+use crate::integrator::{
+    CameraSample, Frame, Integrator, background, light_estimate, sample_lights, seen_lights, spawn_point,
+};
 use crate::light::{LightSample, Lights};
 use crate::scene::Sampling;
 use glam::{DVec3, Vec3};
@@ -186,8 +188,7 @@ impl<'a> Shading<'a> {
         if f.luminance() <= 0.0 {
             return Rgb::ZERO;
         }
-        let w = if s.delta { 1.0 } else { power_heuristic(s.pdf, self.pdf(wi)) };
-        f * s.radiance * (w / s.pdf)
+        light_estimate(s, f, || self.pdf(wi))
     }
 }
 
@@ -197,16 +198,9 @@ impl Integrator for DualScattering<'_> {
             return background(self.lights, dir);
         };
         let shading = Shading::new(self, &hit, dir);
-        let mut radiance = Rgb::ZERO;
         // The same random numbers in the same order as `single`, so d_f = d_b = 0 reproduces it.
-        if let Some(env) = &self.lights.environment
-            && let Some(s) = env.sample(rng.random())
-        {
-            radiance += shading.light(&s);
-        }
-        if let Some(sun) = &self.lights.sun {
-            radiance += shading.light(&sun.sample(rng.random()));
-        }
+        let mut radiance = Rgb::ZERO;
+        sample_lights(self.lights, rng, |s| radiance += shading.light(s));
         // Drawn even for light sampling alone, so that every strategy's pixel streams stay in step
         // (renders with the same seed then differ only through the strategy).
         let u: [f64; 4] = rng.random();

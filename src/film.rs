@@ -98,15 +98,13 @@ impl Film {
             ensure!(v.iter().all(|x| x.is_finite()), "{}: channel {name} holds NaN or infinite values", path.display());
             Ok(Some(v))
         };
+        let n = width * height;
         let need =
             |name: &str| channel(name)?.ok_or_else(|| anyhow!("{}: the image has no {name} channel", path.display()));
+        let or_zero = |name: &str| Ok::<_, anyhow::Error>(channel(name)?.unwrap_or_else(|| vec![0.0; n]));
         let (r, g, b, a) = (need("R")?, need("G")?, need("B")?, need("A")?);
-        let var = ["variance.R", "variance.G", "variance.B"].map(&channel);
-        let zero = vec![0.0; width * height];
-        let [vr, vg, vb] = var;
-        let (vr, vg, vb) = (vr?.unwrap_or(zero.clone()), vg?.unwrap_or(zero.clone()), vb?.unwrap_or(zero));
+        let (vr, vg, vb) = (or_zero("variance.R")?, or_zero("variance.G")?, or_zero("variance.B")?);
         let spp = channel("spp")?.and_then(|s| s.first().copied()).unwrap_or(0.0) as u32;
-        let n = width * height;
         Ok(Film {
             width,
             height,

@@ -45,6 +45,28 @@ pub(crate) fn power_heuristic(a: f64, b: f64) -> f64 {
     if a <= 0.0 { 0.0 } else { a * a / (a * a + b * b) }
 }
 
+/// Next-event estimation: one sample of each light, environment then sun, handed to `each`. Every
+/// integrator draws its light samples here, so all of them use the same random numbers in the
+/// same order (`dual` with d_f = d_b = 0 reproduces `single` exactly).
+pub(crate) fn sample_lights(lights: &Lights, rng: &mut impl Rng, mut each: impl FnMut(&LightSample)) {
+    if let Some(env) = &lights.environment
+        && let Some(s) = env.sample(rng.random())
+    {
+        each(&s);
+    }
+    if let Some(sun) = &lights.sun {
+        each(&sun.sample(rng.random()));
+    }
+}
+
+/// A light sample's estimate f L / pdf for the (projected) scattering value `f` toward it,
+/// MIS-weighted against a direction sampler whose density toward it `direction_pdf` gives (not
+/// asked for a delta light, which no direction sampler can hit).
+pub(crate) fn light_estimate(s: &LightSample, f: Rgb, direction_pdf: impl FnOnce() -> f64) -> Rgb {
+    let w = if s.delta { 1.0 } else { power_heuristic(s.pdf, direction_pdf()) };
+    f * s.radiance * (w / s.pdf)
+}
+
 /// Where new rays leave a hit: just inside the fiber, which the BVH then ignores (rays only enter
 /// fibers from outside), so a ray leaving through its own fiber cannot hit it again however the
 /// hit point was rounded.
@@ -74,8 +96,7 @@ impl PathTracer<'_> {
         if f.luminance() <= 0.0 || self.fibers.occluded(from, s.wi.as_vec3(), f32::INFINITY) {
             return Rgb::ZERO;
         }
-        let w = if s.delta { 1.0 } else { power_heuristic(s.pdf, self.fiber.pdf(wo, wi, h)) };
-        f * s.radiance * (w / s.pdf)
+        light_estimate(s, f, || self.fiber.pdf(wo, wi, h))
     }
 }
 
@@ -116,15 +137,9 @@ impl Integrator for PathTracer<'_> {
             let h = h_offset(wo, frame.to_local(hit.normal.as_dvec3()));
             let from = spawn_point(&hit);
 
-            // Next-event estimation: one sample of each light.
-            if let Some(env) = &self.lights.environment
-                && let Some(s) = env.sample(rng.random())
-            {
-                radiance += throughput * self.light_contribution(&s, &frame, wo, h, from);
-            }
-            if let Some(sun) = &self.lights.sun {
-                radiance += throughput * self.light_contribution(&sun.sample(rng.random()), &frame, wo, h, from);
-            }
+            sample_lights(self.lights, rng, |s| {
+                radiance += throughput * self.light_contribution(s, &frame, wo, h, from)
+            });
 
             // Continue by sampling the fiber.
             let Some(s) = self.fiber.sample(wo, h, rng.random()) else { break };

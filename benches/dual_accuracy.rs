@@ -1,28 +1,35 @@
-//! Accuracy and speed of `dual` against the path-traced reference (issue 5's table).
+//! Accuracy of `dual` against the path-traced reference, term by term (issue 11).
 //!
-//! `cargo bench --bench dual_accuracy [-- FILTER]`: for blond, brown and black curly swatches,
-//! under their HDRI and under a backlight (a sun behind the hair in a dim sky), renders a path
-//! traced reference, then `dual` and `path` at doubling spp (other seeds), and reports
+//! `cargo bench --bench dual_accuracy [-- FILTER]`: for blond, brown and black curly swatches (and
+//! real grooms named in DUALHAIR_ACC_GROOMS), each under its HDRI, a front sun and a back sun,
+//! renders a path-traced reference and `dual` with each model variant, and prints two tables:
 //!
-//! - relative RMSE of `dual` against the reference over hair pixels (compare module), with the
-//!   part noise explains (both images' pixel variances), and the ratio of mean luminances, at the
-//!   highest dual spp, and the error without the noise, sqrt(RMSE^2 - noise^2) (the expected squared
-//!   error is the squared bias plus the noise variance);
-//! - the wall time `dual` needs to come within 10% of that converged error, and the wall time
-//!   `path` needs to reach the same error, measured in the same run.
+//! - diagnostics: each image's mean luminance over fully covered hair pixels split into the
+//!   terms of [`Term`] (path: by the events on the path; dual: by its terms), as shares of the
+//!   reference's total, so the table shows which dual term misses which light;
+//! - accuracy: mean luminance ratio dual/path and the relative RMSE of 4x4-pixel block means
+//!   over fully covered blocks, with the part both images' noise explains.
 //!
-//! Sizes: DUALHAIR_ACC_SIZE (pixels, default 40), DUALHAIR_ACC_REF_SPP (default 16384),
-//! DUALHAIR_ACC_DUAL_SPP (highest, default 8192), DUALHAIR_ACC_PATH_SPP (highest, default 4096).
+//! With DUALHAIR_ACC_SWEEP=1 it also measures speed: the wall time `dual` needs to come within 10%
+//! of its converged error, and the time `path` needs for that error, in the same run.
+//!
+//! Settings: DUALHAIR_ACC_SIZE (pixels, default 48), DUALHAIR_ACC_REF_SPP (default 8192),
+//! DUALHAIR_ACC_DUAL_SPP (default 2048), DUALHAIR_ACC_MODELS (comma-separated variants, each
+//! `NAME` or `NAME@D_F/D_B`; names below; default `zinke2008,default`), DUALHAIR_ACC_GROOMS
+//! (comma-separated .hair files). References are kept in `target/dual-accuracy/` and reused by
+//! name, size and spp: delete that folder after changing the path tracer or a scene.
 
 use dualhair::cache::Cache;
-use dualhair::compare::{hair_pixels, mean_luminance, relative_noise, relative_rmse};
+use dualhair::compare::{block_relative_rmse, hair_pixels, mean_luminance, relative_rmse};
+use dualhair::dual::DualModel;
 use dualhair::film::Film;
+use dualhair::integrator::Term;
 use dualhair::render_cmd::{DualInputs, render_prepared};
-use dualhair::scene::{EnvSpec, IntegratorKind, OneOrRgb, SceneFile, SunSpec};
-use std::path::Path;
+use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, OneOrRgb, SceneFile, SunSpec};
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-fn env_or(key: &str, default: u32) -> u32 {
+fn env_or<T: std::str::FromStr>(key: &str, default: T) -> T {
     std::env::var(key).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
 }
 
@@ -36,106 +43,125 @@ fn timed_render(file: &SceneFile, cache: &Cache) -> (Film, f64) {
     (film, start.elapsed().as_secs_f64())
 }
 
-/// (spp, seconds, relative RMSE) of renders at doubling spp, the time of each render alone, and
-/// the last (highest spp) image.
-fn sweep(
-    file: &SceneFile,
-    cache: &Cache,
-    max_spp: u32,
-    reference: &Film,
-    pixels: &[usize],
-) -> (Vec<(u32, f64, f64)>, Film) {
+/// The path-traced reference, from `dir` when an earlier run left it there.
+fn reference(file: &SceneFile, cache: &Cache, dir: &Path, name: &str) -> Film {
+    let path = dir.join(format!("{name}-{}-{}.exr", file.camera.width, file.render.spp));
+    if let Ok(film) = Film::read_exr(&path) {
+        return film;
+    }
+    let (film, secs) = timed_render(file, cache);
+    eprintln!("  reference {name}: {secs:.1} s");
+    film.write_exr(&path, true).unwrap();
+    film
+}
+
+/// (spp, seconds, relative RMSE) of renders at doubling spp.
+fn sweep(file: &SceneFile, cache: &Cache, max_spp: u32, reference: &Film, pixels: &[usize]) -> Vec<(u32, f64, f64)> {
     let mut out = Vec::new();
     let mut spp = 1;
-    loop {
+    while spp <= max_spp {
         let mut f = file.clone();
         f.render.spp = spp;
         f.render.seed = 1000 + spp as u64;
         let (film, secs) = timed_render(&f, cache);
         out.push((spp, secs, relative_rmse(&film, reference, pixels)));
-        if spp * 2 > max_spp {
-            return (out, film);
-        }
         spp *= 2;
     }
+    out
 }
 
-/// First render in a sweep whose error is at most `target`.
-fn first_within(sweep: &[(u32, f64, f64)], target: f64) -> Option<(u32, f64)> {
-    sweep.iter().find(|s| s.2 <= target).map(|s| (s.0, s.1))
+/// Mean luminance of each term over `pixels`.
+fn term_means(film: &Film, pixels: &[usize]) -> [f64; 4] {
+    Term::ALL.map(|t| pixels.iter().map(|&i| film.terms[i][t as usize].luminance()).sum::<f64>() / pixels.len() as f64)
 }
 
 fn main() {
     let filter = std::env::args().skip(1).find(|a| !a.starts_with('-')).unwrap_or_default();
-    let size = env_or("DUALHAIR_ACC_SIZE", 40) as usize;
-    let (ref_spp, dual_spp, path_spp) = (
-        env_or("DUALHAIR_ACC_REF_SPP", 16384),
-        env_or("DUALHAIR_ACC_DUAL_SPP", 8192),
-        env_or("DUALHAIR_ACC_PATH_SPP", 4096),
-    );
+    let size: usize = env_or("DUALHAIR_ACC_SIZE", 48);
+    let (ref_spp, dual_spp): (u32, u32) = (env_or("DUALHAIR_ACC_REF_SPP", 8192), env_or("DUALHAIR_ACC_DUAL_SPP", 2048));
+    let models: String = env_or("DUALHAIR_ACC_MODELS", "zinke2008,default".to_string());
+    let grooms: String = env_or("DUALHAIR_ACC_GROOMS", String::new());
     let root = env!("CARGO_MANIFEST_DIR");
     let cache = Cache::at(format!("{}/dualhair-cache", env!("CARGO_TARGET_TMPDIR")));
+    let refs = PathBuf::from(format!("{root}/target/dual-accuracy"));
+    std::fs::create_dir_all(&refs).unwrap();
+    println!("{size}x{size} pixels, reference path {ref_spp} spp, dual {dual_spp} spp; 4x4 blocks");
     println!(
-        "{size}x{size} pixels, reference {ref_spp} spp path; dual up to {dual_spp} spp, path up to {path_spp} spp"
+        "| hair | light | image | d_f, d_b | single | forward | back | multiback | mean ratio | block rel. RMSE (noise) |"
     );
-    println!(
-        "| scene | light | mean ratio dual/path | rel. RMSE | noise part | without noise | dual time to converge | path time to same error | speedup |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|");
-    for hair in ["blond", "brown", "black"] {
-        for light in ["hdri", "backlight"] {
-            if !format!("{hair} {light}").contains(&filter) {
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let mut hairs: Vec<(String, Option<PathBuf>)> = ["blond", "brown", "black"].map(|h| (h.to_string(), None)).to_vec();
+    for g in grooms.split(',').filter(|g| !g.is_empty()) {
+        let stem = Path::new(g).file_stem().unwrap().to_string_lossy().to_string();
+        for color in ["blond", "brown", "black"] {
+            hairs.push((format!("{stem}/{color}"), Some(PathBuf::from(g))));
+        }
+    }
+    for (hair, groom) in &hairs {
+        for light in ["hdri", "front", "back"] {
+            let name = format!("{hair} {light}");
+            if !name.contains(&filter) {
                 continue;
             }
-            let mut file = SceneFile::load(Path::new(&format!("{root}/scenes/{hair}.json"))).unwrap();
-            file.camera.width = size;
-            file.camera.height = size;
-            if light == "backlight" {
-                file.lights.environment = Some(EnvSpec { color: Some([0.02, 0.025, 0.03]), ..EnvSpec::default() });
-                file.lights.sun = Some(SunSpec {
-                    direction: [0.2, 1.0, 0.35],
-                    irradiance: OneOrRgb::One(3.0),
-                    angular_diameter: 0.53,
+            let color = hair.rsplit('/').next().unwrap();
+            let mut file = SceneFile::load(Path::new(&format!("{root}/scenes/{color}.json"))).unwrap();
+            if let Some(g) = groom {
+                file.hair = HairSpec { file: Some(g.clone()), generate: None, ..file.hair.clone() };
+                file.hair.rotate = [0.0; 3];
+                file.lights.environment = Some(EnvSpec {
+                    file: Some(PathBuf::from(format!("{root}/scenes/hdri/courtyard.exr"))),
+                    ..EnvSpec::default()
                 });
             }
-            let mut reference = file.clone();
-            reference.render.integrator = IntegratorKind::Path;
-            reference.render.spp = ref_spp;
-            let (reference, ref_secs) = timed_render(&reference, &cache);
-            let pixels = hair_pixels(&reference);
-
-            let mut dual = file.clone();
-            dual.render.integrator = IntegratorKind::Dual;
-            let (dual_sweep, converged) = sweep(&dual, &cache, dual_spp, &reference, &pixels);
-            let error = relative_rmse(&converged, &reference, &pixels);
-            let noise = relative_noise(&converged, &reference, &pixels);
-            let ratio = mean_luminance(&converged, &pixels) / mean_luminance(&reference, &pixels);
-
+            file.camera.width = size;
+            file.camera.height = size;
+            let sun = |direction| SunSpec { direction, irradiance: OneOrRgb::One(3.0), angular_diameter: 0.53 };
+            let dim_sky = Some(EnvSpec { color: Some([0.02, 0.025, 0.03]), ..EnvSpec::default() });
+            match light {
+                "front" => (file.lights.environment, file.lights.sun) = (dim_sky, Some(sun([0.3, -1.0, 0.5]))),
+                "back" => (file.lights.environment, file.lights.sun) = (dim_sky, Some(sun([0.2, 1.0, 0.35]))),
+                _ => {}
+            }
             let mut path = file.clone();
             path.render.integrator = IntegratorKind::Path;
-            let (path_sweep, _) = sweep(&path, &cache, path_spp, &reference, &pixels);
-            let target = 1.1 * error;
-            let dual_hit = first_within(&dual_sweep, target);
-            let path_hit = first_within(&path_sweep, target);
-            let show = |h: Option<(u32, f64)>| h.map_or("not reached".into(), |(s, t)| format!("{t:.3} s ({s} spp)"));
-            let speedup = match (dual_hit, path_hit) {
-                (Some(d), Some(p)) => format!("{:.2}x", p.1 / d.1),
-                (Some(d), None) => {
-                    format!("> {:.2}x", path_sweep.iter().map(|s| s.1).fold(0.0, f64::max) / d.1)
+            path.render.spp = ref_spp;
+            let reference = reference(&path, &cache, &refs, &name.replace(['/', ' '], "_"));
+            let pixels = hair_pixels(&reference);
+            let total = mean_luminance(&reference, &pixels);
+            let shares = |film: &Film| term_means(film, &pixels).map(|t| format!("{:.3}", t / total)).join(" | ");
+            println!("| {hair} | {light} | path | - | {} | 1 | - |", shares(&reference));
+            for spec in models.split(',') {
+                let (model, d) = spec.split_once('@').unwrap_or((spec, ""));
+                let mut dual = file.clone();
+                dual.render.integrator = IntegratorKind::Dual;
+                dual.render.spp = dual_spp;
+                dual.render.seed = 1;
+                dual.dual.model = <DualModel as clap::ValueEnum>::from_str(model, true).unwrap();
+                if let Some((f, b)) = d.split_once('/') {
+                    (dual.dual.d_f, dual.dual.d_b) = (f.parse().unwrap(), b.parse().unwrap());
                 }
-                _ => "-".into(),
-            };
-            println!(
-                "| {hair} | {light} | {ratio:.3} | {:.1}% | {:.1}% | {:.1}% | {} | {} | {speedup} |",
-                100.0 * error,
-                100.0 * noise,
-                100.0 * (error * error - noise * noise).max(0.0).sqrt(),
-                show(dual_hit),
-                show(path_hit)
-            );
-            eprintln!("  reference {ref_secs:.1} s, {} hair pixels", pixels.len());
-            eprintln!("  dual sweep (spp, s, err): {dual_sweep:.4?}");
-            eprintln!("  path sweep (spp, s, err): {path_sweep:.4?}");
+                let (film, secs) = timed_render(&dual, &cache);
+                let (rmse, noise) = block_relative_rmse(&film, &reference, 4);
+                println!(
+                    "| {hair} | {light} | dual {model} | {}, {} | {} | {:.3} | {:.1}% ({:.1}%) |",
+                    dual.dual.d_f,
+                    dual.dual.d_b,
+                    shares(&film),
+                    mean_luminance(&film, &pixels) / total,
+                    100.0 * rmse,
+                    100.0 * noise
+                );
+                eprintln!("  {name} {spec}: {secs:.1} s, {} hair pixels", pixels.len());
+                if std::env::var("DUALHAIR_ACC_SWEEP").is_ok_and(|v| v == "1") {
+                    let target = 1.1 * relative_rmse(&film, &reference, &pixels);
+                    let mut p = file.clone();
+                    p.render.integrator = IntegratorKind::Path;
+                    let d = sweep(&dual, &cache, dual_spp, &reference, &pixels);
+                    let p = sweep(&p, &cache, ref_spp / 2, &reference, &pixels);
+                    let first = |s: &[(u32, f64, f64)]| s.iter().find(|s| s.2 <= target).map(|s| (s.0, s.1));
+                    eprintln!("  time to {target:.4}: dual {:?}, path {:?}", first(&d), first(&p));
+                }
+            }
         }
     }
 }

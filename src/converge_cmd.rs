@@ -102,6 +102,9 @@ impl std::str::FromStr for Method {
             integrator: IntegratorKind::from_str(i, true).map_err(|_| format!("`{i}`: no such integrator"))?,
             sampling: Sampling::from_str(smp, true).map_err(|_| format!("`{smp}`: no such sampling"))?,
         };
+        if method.integrator == IntegratorKind::Auto {
+            return Err("`auto` is no method to compare: name single, dual or path".into());
+        }
         if method.sampling == Sampling::Light && method.integrator != IntegratorKind::Dual {
             return Err(format!("`{s}`: light sampling alone is for dual only"));
         }

@@ -8,18 +8,22 @@
 //! fully lit (a shadow ray through the real strands escapes):
 //!     F = f_s + d_b f_back                                                  (F_direct)
 //! in shadow (n = fibers crossed toward the light, from the density grid):
-//!     T_f = d_f a_f(theta)^n,  sigma_f^2 = n beta_f(theta)^2
-//!     F = T_f d_f (f_s^G + pi d_b f_back^G)                                 (F_scatter)
+//!     T_f = T(a_f(theta), n),  sigma_f^2 = n' beta_f(theta)^2
+//!     F = d_f^k T_f (f_s^G + pi d_b f_back^G)                               (F_scatter)
 //! ```
 //!
-//! with theta the light's inclination (the tables' argument, never theta_d). Every F here is, like
+//! with theta the light's inclination (the tables' argument, never theta_d). [`DualModel`] says
+//! what T, n', k and A_b (in f_back) are: Zinke's literal T = a_f^n, n' = n, k = 2 and his A_b,
+//! or the measured default (`two_stream`): T the mean of a_f^N over a Poisson count N of mean n
+//! given N >= 1, n' = E[N | N >= 1], k = 1, and A_b = a_f R with R the Kubelka-Munk reflectance of
+//! the hair behind the fiber. Every F here is, like
 //! [`precompute::fiber::FiberModel::eval`], the projected value f |cos theta_i| per unit solid
 //! angle of wi. The pieces:
 //!
 //! - f_s is the fiber model and f_s^G its forward-spread response
 //!   ([`SpreadScattering::eval_spread`]) with every lobe widened by 4 sigma_f^2: the tables' widths
 //!   are of theta_h = (theta + theta_i) / 2, so a variance of the inclination is 4 times theirs.
-//! - f_back = A_b(theta) M(theta_i; 2 Delta_b - theta_o, 4 sigma_b^2) s_b(phi), with M the
+//! - f_back = A_b M(theta_i; 2 Delta_b(theta) - theta_o, 4 sigma_b(theta)^2) s_b(phi), with M the
 //!   normalized longitudinal lobe of d'Eon et al. 2011 (a Gaussian of theta_h, centred on Delta_b
 //!   with standard deviation sigma_b, is that Gaussian of theta_i with twice the width) and
 //!   s_b = 1/pi over the backward half |phi| < pi/2 (thesis eq. 3.26). Zinke's constant
@@ -42,7 +46,7 @@
 
 use crate::fibers::{Fibers, Hit};
 use crate::integrator::{
-    CameraSample, Frame, Integrator, background, light_estimate, sample_lights, seen_lights, spawn_point,
+    CameraSample, Frame, Integrator, Term, Terms, background, light_weight, sample_lights, seen_lights, spawn_point,
 };
 use crate::light::{LightSample, Lights};
 use crate::scene::Sampling;
@@ -53,6 +57,7 @@ use precompute::fiber::{Longitudinal, SpreadScattering};
 use precompute::spectrum::Rgb;
 use precompute::tables::{Quantity, Tables};
 use rand::Rng;
+use serde::Deserialize;
 use std::f64::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 
 /// Floor on the backscatter lobe's variance (radians^2): sigma_b is 0 only where a_b = 0, and
@@ -62,6 +67,147 @@ const MIN_VARIANCE: f64 = 1e-4;
 /// Share of the uniform sphere in the `importance` sampler, times max(d_f, d_b): 0 without
 /// multiple scattering, so that `importance` is then exactly `single`'s fiber sampler.
 const DEFENSIVE: f64 = 0.02;
+
+/// How `dual` turns the fibers between a shading point and the light into a forward
+/// transmittance T_f.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Transmittance {
+    /// a_f^n of the density grid's mean count n (Zinke et al. 2008 eq. 6 with the thesis's grid).
+    Grid,
+    /// The mean of a_f^N over a Poisson-distributed count N of mean n, given N >= 1 (the shadow
+    /// ray found a fiber): (e^(-n (1 - a_f)) - e^(-n)) / (1 - e^(-n)).
+    Poisson,
+    /// a_f^N of the real count N of fibers the shadow ray crosses (Zinke's ray shooting, sec. 4.2).
+    Fibers,
+}
+
+/// The dual-scattering model: Zinke et al. 2008 read literally, the measured default, and the
+/// other variants of the README's ablation table (issue 11), each one change from its row above.
+#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+#[value(rename_all = "snake_case")]
+pub enum DualModel {
+    /// Zinke et al. 2008's pseudo-code read literally, as the thesis (seed 003) and Unity HDRP
+    /// do: T_f = d_f a_f^n of the grid's mean count, and d_f again in F_scatter.
+    Zinke2008,
+    /// d_f applied once, in T_f (Unreal Engine's and alShaders' reading).
+    DfOnce,
+    /// d_f once, with n the real count of fibers the shadow ray crosses (Zinke's ray shooting).
+    Fibers,
+    /// d_f once, with the mean of a_f^N over a Poisson count of the grid's mean n.
+    Poisson,
+    /// `poisson` with a_f replaced by the per-fiber transmittance of a pile of plates with
+    /// inter-reflections (Stokes 1862).
+    PoissonStokes,
+    /// `poisson` with A_b replaced by the reflectance of a Kubelka-Munk half-space.
+    KubelkaMunk,
+    /// `poisson` with A_b = a_f R: the light the half-space of fibers behind the shaded fiber
+    /// sends back (its Kubelka-Munk reflectance R), passed on toward the viewer by the shaded
+    /// fiber's own forward scattering (the default).
+    TwoStream,
+}
+
+impl DualModel {
+    /// Whether d_f enters F_scatter a second time.
+    pub fn d_f_twice(self) -> bool {
+        self == DualModel::Zinke2008
+    }
+
+    pub fn transmittance_kind(self) -> Transmittance {
+        match self {
+            DualModel::Zinke2008 | DualModel::DfOnce => Transmittance::Grid,
+            DualModel::Fibers => Transmittance::Fibers,
+            _ => Transmittance::Poisson,
+        }
+    }
+
+    /// The transmittance per fiber crossed: a_f, or for `poisson_stokes` the factor by which a
+    /// deep pile's transmittance falls per fiber. Stokes 1862: one fiber's transfer matrix has
+    /// trace 2 cosh K with cosh K = (1 + a_f^2 - a_b^2) / (2 a_f) and determinant 1, so the factor
+    /// is e^-K.
+    pub fn per_fiber(self, a_f: f64, a_b: f64) -> f64 {
+        if self != DualModel::PoissonStokes || a_f <= 0.0 || a_b <= 0.0 {
+            return a_f;
+        }
+        let c = (1.0 + a_f * a_f - a_b * a_b) / (2.0 * a_f);
+        1.0 / (c + (c * c - 1.0).max(0.0).sqrt())
+    }
+
+    /// T_f / d_f through `n` fibers (a real count or the grid's mean, per `transmittance`) for
+    /// one channel's a_f and a_b.
+    pub fn transmittance(self, a_f: f64, a_b: f64, n: f64) -> f64 {
+        let a = self.per_fiber(a_f, a_b);
+        match self.transmittance_kind() {
+            Transmittance::Grid | Transmittance::Fibers => a.powf(n),
+            // e^-n (e^(n a) - 1) / (1 - e^-n): in expm1 form for small n a (exact as n -> 0,
+            // where one fiber transmits a), else as written (no overflow for large n).
+            Transmittance::Poisson if n > 0.0 => {
+                let numerator =
+                    if n * a < 1.0 { (-n).exp() * (n * a).exp_m1() } else { (-n * (1.0 - a)).exp() - (-n).exp() };
+                numerator / -(-n).exp_m1()
+            }
+            Transmittance::Poisson => a,
+        }
+    }
+
+    /// The local backscattering albedo A_b for a_f, a_b (one channel), given the tables' own
+    /// A_b (Zinke et al. 2008 eq. 14 with its three-event term; design section 4).
+    ///
+    /// Half-space (`kubelka_munk`, `two_stream`): light entering a half-space of fibers with
+    /// forward (a_f) and backward (a_b) fractions per fiber crossed, fibers placed at random so
+    /// that light also travels through gaps, obeys dI/dn = -(1 - a_f) I + a_b J,
+    /// -dJ/dn = -(1 - a_f) J + a_b I (n = fibers crossed; Kubelka and Munk 1931). Its reflectance
+    /// is R = a_b / (s + sqrt(s^2 - a_b^2)) with s = 1 - a_f; its series a_b / 2s + a_b^3 / 8s^3 +
+    /// ... has the one- and three-event structure of Zinke's a_b a_f^2 / (1 - a_f^2) + ...;
+    /// sigma_a = 0 (a_f + a_b = 1) gives R = 1. Most of that light leaves through the gaps and
+    /// reaches the camera on rays that hit other fibers; what the shaded fiber sends toward the
+    /// viewer is the part it passes on forward, a_f R (`two_stream`). Zinke's one-event term has
+    /// the same a_f, but its light must also cross every fiber on the way in.
+    pub fn backscatter_albedo(self, a_f: f64, a_b: f64, table: f64) -> f64 {
+        let passed_on = match self {
+            DualModel::KubelkaMunk => 1.0,
+            DualModel::TwoStream => a_f,
+            _ => return table,
+        };
+        if a_b <= 0.0 {
+            return 0.0;
+        }
+        let s = (1.0 - a_f).max(0.0);
+        passed_on * (a_b / (s + (s * s - a_b * a_b).max(0.0).sqrt())).min(1.0)
+    }
+
+    /// The count the spread sigma_f^2 = n beta_f^2 uses: for a Poisson count given N >= 1, its
+    /// conditional mean n / (1 - e^(-n)).
+    pub fn mean_count(self, n: f64) -> f64 {
+        match self.transmittance_kind() {
+            Transmittance::Poisson if n > 0.0 => n / -(-n).exp_m1(),
+            Transmittance::Poisson => 1.0,
+            _ => n,
+        }
+    }
+}
+
+/// Below this predicted share of multiple scattering in the image, `auto` renders `single`.
+pub const AUTO_SINGLE_BELOW: f64 = 0.15;
+
+/// The share of a hair image's light that multiple scattering carries, as the fiber's tables
+/// predict it: the fiber's scattering albedo a_f + a_b (luminance), averaged over light
+/// inclinations weighted by cos^2 theta (directions uniform over the sphere, times the fiber's
+/// projected width). Deep in hair each fiber passes on that fraction of what reaches it, so the
+/// orders beyond the first carry about that share of the light (of the geometric series
+/// 1 + w + w^2 + ... = 1 / (1 - w), the terms after the first are the share w).
+pub fn predicted_multiple_share(tables: &Tables) -> f64 {
+    let n = 256;
+    let (mut sum, mut weight) = (0.0, 0.0);
+    for k in 0..n {
+        let theta = -FRAC_PI_2 + PI * (k as f64 + 0.5) / n as f64;
+        let row = tables.at(theta);
+        let w = theta.cos().powi(2);
+        sum += w * (row[Quantity::AF as usize] + row[Quantity::AB as usize]).luminance();
+        weight += w;
+    }
+    sum / weight
+}
 
 /// The `dual` integrator: the scene, the fiber, its tables and the hair's density grid.
 pub struct DualScattering<'a> {
@@ -74,7 +220,31 @@ pub struct DualScattering<'a> {
     pub d_f: f64,
     /// Backscattering density factor d_b in [0, 1] (thesis eq. 3.21).
     pub d_b: f64,
+    pub model: DualModel,
     pub sampling: Sampling,
+}
+
+/// F toward one light direction, split into its terms (see [`Term`]).
+#[derive(Clone, Copy, Default)]
+struct Split {
+    /// f_s when fully lit.
+    single: Rgb,
+    /// T_f d_f f_s^G in shadow.
+    forward: Rgb,
+    /// d_b f_back when lit, T_f d_f pi d_b f_back^G in shadow.
+    back: Rgb,
+}
+
+impl Split {
+    fn total(&self) -> Rgb {
+        self.single + self.forward + self.back
+    }
+
+    fn add_to(&self, terms: &mut Terms, weight: Rgb) {
+        terms[Term::Single as usize] += self.single * weight;
+        terms[Term::Forward as usize] += self.forward * weight;
+        terms[Term::Back as usize] += self.back * weight;
+    }
 }
 
 /// F at one fiber hit, with its sampler.
@@ -102,42 +272,57 @@ impl<'a> Shading<'a> {
         Shading { dual, frame, wo, theta_o, phi_o, h, from: spawn_point(hit), uniform }
     }
 
-    /// F(wo, wi) toward the light direction `wi` (local) = `d` (world).
-    fn f(&self, wi: DVec3, d: DVec3) -> Rgb {
+    /// F(wo, wi) toward the light direction `wi` (local) = `d` (world), split into its terms.
+    fn f(&self, wi: DVec3, d: DVec3) -> Split {
         let dual = self.dual;
+        let model = dual.model;
         let (sin_i, cos_i) = sin_cos_theta(wi);
         let dphi = wrap_angle(phi(wi) - self.phi_o).abs();
-        if !dual.fibers.occluded(self.from, d.as_vec3(), f32::INFINITY) {
+        // Fully lit when no fiber is in the way: a shadow ray through the real strands, or for
+        // `fibers` the real count of fibers crossed (Zinke's ray shooting) being 0.
+        let count = (model.transmittance_kind() == Transmittance::Fibers)
+            .then(|| dual.fibers.crossings(self.from, d.as_vec3()) as f64);
+        let lit = match count {
+            Some(n) => n == 0.0,
+            None => !dual.fibers.occluded(self.from, d.as_vec3(), f32::INFINITY),
+        };
+        if lit {
             // Fully lit (directFraction = 1, T_f = 1): F_direct = f_s + d_b f_back.
-            let mut f = dual.fiber.eval(self.wo, wi, self.h);
+            let mut split = Split { single: dual.fiber.eval(self.wo, wi, self.h), ..Split::default() };
             if dual.d_b > 0.0 && dphi < FRAC_PI_2 {
                 let row = dual.tables.at(sin_i.asin());
-                f += self.backscatter(&row, sin_i, cos_i, Rgb::ZERO) * (dual.d_b * FRAC_1_PI);
+                split.back = self.backscatter(&row, sin_i, cos_i, Rgb::ZERO) * (dual.d_b * FRAC_1_PI);
             }
-            return f;
+            return split;
         }
         if dual.d_f == 0.0 {
-            return Rgb::ZERO;
+            return Split::default();
         }
-        // In shadow (directFraction = 0): F_scatter = T_f d_f (f_s^G + pi d_b f_back^G) with
-        // T_f = d_f a_f^n and sigma_f^2 = n beta_f^2 (thesis eqs. 3.18 and 3.20).
+        // In shadow (directFraction = 0): F_scatter = d_f^k T_f (f_s^G + pi d_b f_back^G) with
+        // T_f and sigma_f^2 = n' beta_f^2 as the model says (thesis eqs. 3.18 and 3.20 for
+        // `zinke2008`: T_f = a_f^n, n' = n, k = 2).
         let row = dual.tables.at(sin_i.asin());
-        let n = dual.grid.fibers_crossed(self.from.as_dvec3(), d, f64::INFINITY);
-        let t_f = Rgb(row[Quantity::AF as usize].0.map(|a| dual.d_f * a.powf(n)));
-        let var_f = Rgb(row[Quantity::BetaF as usize].0.map(|b| n * b * b));
-        let mut f = dual.fiber.eval_spread(self.wo, wi, self.h, var_f * 4.0);
+        let n = count.unwrap_or_else(|| dual.grid.fibers_crossed(self.from.as_dvec3(), d, f64::INFINITY));
+        let a_f = row[Quantity::AF as usize];
+        let t_f = Rgb(std::array::from_fn(|c| model.transmittance(a_f.0[c], row[Quantity::AB as usize].0[c], n)));
+        let mean_n = model.mean_count(n);
+        let var_f = Rgb(row[Quantity::BetaF as usize].0.map(|b| mean_n * b * b));
+        let scale = t_f * if model.d_f_twice() { dual.d_f * dual.d_f } else { dual.d_f };
+        let mut split =
+            Split { forward: scale * dual.fiber.eval_spread(self.wo, wi, self.h, var_f * 4.0), ..Split::default() };
         if dual.d_b > 0.0 {
             let azimuth = (PI - dphi) * FRAC_1_PI * FRAC_1_PI;
-            f += self.backscatter(&row, sin_i, cos_i, var_f) * (PI * dual.d_b * azimuth);
+            split.back = scale * self.backscatter(&row, sin_i, cos_i, var_f) * (PI * dual.d_b * azimuth);
         }
-        t_f * f * dual.d_f
+        split
     }
 
     /// A_b(theta) M(theta_i; 2 Delta_b - theta_o, 4 (sigma_b^2 + extra)) per channel: f_back
     /// without its azimuthal factor. `extra` is a theta_h variance, like sigma_b^2.
     fn backscatter(&self, row: &[Rgb; 9], sin_i: f64, cos_i: f64, extra: Rgb) -> Rgb {
         Rgb(std::array::from_fn(|c| {
-            let a = row[Quantity::ABack as usize].0[c];
+            let q = |q: Quantity| row[q as usize].0[c];
+            let a = self.dual.model.backscatter_albedo(q(Quantity::AF), q(Quantity::AB), q(Quantity::ABack));
             if a <= 0.0 {
                 return 0.0;
             }
@@ -181,14 +366,18 @@ impl<'a> Shading<'a> {
         if self.uniform > 0.0 { (1.0 - self.uniform) * fiber_pdf + self.uniform / SPHERE } else { fiber_pdf }
     }
 
-    /// Radiance from a light sample, MIS-weighted against F's sampler.
-    fn light(&self, s: &LightSample) -> Rgb {
+    /// Radiance from a light sample, MIS-weighted against F's sampler, added to `radiance` and
+    /// its terms.
+    fn light(&self, s: &LightSample, radiance: &mut Rgb, terms: &mut Terms) {
         let wi = self.frame.to_local(s.wi);
-        let f = self.f(wi, s.wi);
+        let split = self.f(wi, s.wi);
+        let f = split.total();
         if f.luminance() <= 0.0 {
-            return Rgb::ZERO;
+            return;
         }
-        light_estimate(s, f, || self.pdf(wi))
+        let weight = light_weight(s, || self.pdf(wi));
+        *radiance += f * weight;
+        split.add_to(terms, weight);
     }
 }
 
@@ -199,17 +388,86 @@ impl Integrator for DualScattering<'_> {
         };
         let shading = Shading::new(self, &hit, dir);
         // The same random numbers in the same order as `single`, so d_f = d_b = 0 reproduces it.
-        let mut radiance = Rgb::ZERO;
-        sample_lights(self.lights, rng, |s| radiance += shading.light(s));
+        let (mut radiance, mut terms) = (Rgb::ZERO, [Rgb::ZERO; 4]);
+        sample_lights(self.lights, rng, |s| shading.light(s, &mut radiance, &mut terms));
         // Drawn even for light sampling alone, so that every strategy's pixel streams stay in step
         // (renders with the same seed then differ only through the strategy).
         let u: [f64; 4] = rng.random();
         if let Some((wi, pdf)) = shading.sample(u) {
             if pdf > 0.0 {
                 let d = shading.frame.to_world(wi).normalize();
-                radiance += shading.f(wi, d) / pdf * seen_lights(self.lights, d, pdf);
+                let split = shading.f(wi, d);
+                let weight = seen_lights(self.lights, d, pdf) / pdf;
+                radiance += split.total() * weight;
+                split.add_to(&mut terms, weight);
             }
         }
-        CameraSample { radiance, hit_hair: true }
+        CameraSample { radiance, hit_hair: true, terms }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::DualModel;
+
+    /// P(N = k) for a Poisson count of mean n.
+    fn poisson(n: f64, k: u32) -> f64 {
+        (1..=k).fold((-n).exp(), |p, j| p * n / j as f64)
+    }
+
+    #[test]
+    fn poisson_transmittance_is_the_mean_over_counts() {
+        // Against the sum over counts k >= 1 of P(k) a^k / P(N >= 1), and the conditional mean
+        // count; one fiber in the way (n -> 0) transmits a.
+        for n in [0.05f64, 0.7, 3.0, 12.0, 40.0] {
+            for a in [0.0f64, 0.04, 0.35, 0.72, 1.0] {
+                let direct = (1..400).map(|k| poisson(n, k) * a.powi(k as i32)).sum::<f64>() / (1.0 - (-n).exp());
+                let t = DualModel::Poisson.transmittance(a, 0.1, n);
+                assert!((t - direct).abs() < 1e-12 * direct.max(1e-300) + 1e-15, "n {n}, a {a}: {t} vs {direct}");
+            }
+            let mean = (1..400).map(|k| k as f64 * poisson(n, k)).sum::<f64>() / (1.0 - (-n).exp());
+            assert!((DualModel::Poisson.mean_count(n) - mean).abs() < 1e-10 * mean);
+        }
+        assert!((DualModel::Poisson.transmittance(0.6, 0.1, 1e-9) - 0.6).abs() < 1e-8);
+        assert!((DualModel::Poisson.transmittance(0.6, 0.1, 0.0) - 0.6).abs() < 1e-15);
+        let deep = DualModel::Poisson.transmittance(0.9, 0.1, 1000.0);
+        assert!((deep / (-100.0f64).exp() - 1.0).abs() < 1e-9, "{deep}");
+        assert_eq!(DualModel::Zinke2008.transmittance(0.5, 0.1, 3.0), 0.125);
+    }
+
+    #[test]
+    fn stokes_pile_decays_by_its_per_fiber_factor() {
+        // Stokes' recursion for identical plates: adding one of transmittance t and reflectance r
+        // to a pile (T, R) gives T' = T t / (1 - R r), R' = R + T^2 r / (1 - R r). Deep in the pile
+        // T falls by the model's per-fiber factor.
+        for (t, r) in [(0.72, 0.074), (0.35, 0.044), (0.9, 0.09), (0.5, 0.45)] {
+            let (mut tn, mut rn) = (t, r);
+            let mut ratio = 0.0;
+            for _ in 0..400 {
+                let next = tn * t / (1.0 - rn * r);
+                rn += tn * tn * r / (1.0 - rn * r);
+                ratio = next / tn;
+                tn = next;
+            }
+            let factor = DualModel::PoissonStokes.per_fiber(t, r);
+            assert!((factor - ratio).abs() < 1e-9, "t {t}, r {r}: {factor} vs {ratio}");
+            assert!(factor >= t, "inter-reflections only add light");
+        }
+    }
+
+    #[test]
+    fn kubelka_munk_reflectance() {
+        // Its series in a_b (one and three backward events) and the white limit.
+        let m = DualModel::KubelkaMunk;
+        for (a_f, a_b) in [(0.72, 0.001), (0.35, 0.002), (0.04, 0.0005)] {
+            let s: f64 = 1.0 - a_f;
+            let series = a_b / (2.0 * s) + a_b.powi(3) / (8.0 * s.powi(3));
+            assert!((m.backscatter_albedo(a_f, a_b, 9.0) - series).abs() < 1e-9, "{a_f} {a_b}");
+        }
+        assert!((m.backscatter_albedo(0.8, 0.2, 9.0) - 1.0).abs() < 1e-12);
+        assert_eq!(m.backscatter_albedo(0.8, 0.0, 9.0), 0.0);
+        assert_eq!(DualModel::Poisson.backscatter_albedo(0.8, 0.1, 9.0), 9.0);
+        let (a_f, a_b) = (0.35, 0.044);
+        assert_eq!(DualModel::TwoStream.backscatter_albedo(a_f, a_b, 9.0), a_f * m.backscatter_albedo(a_f, a_b, 9.0));
     }
 }

@@ -168,4 +168,31 @@ impl Fibers {
             _ => f32::INFINITY,
         })
     }
+
+    /// The number of fibers the ray crosses (to infinity): Zinke et al. 2008's ray-shooting count
+    /// (section 4.2). A strand crossed at the joint of two segments enters both capsules at
+    /// nearly the same distance; such a pair counts once.
+    pub fn crossings(&self, origin: Vec3, dir: Vec3) -> u32 {
+        let (ray, o, d) = self.to_bvh_ray(origin, dir, f32::INFINITY);
+        let mut hits: Vec<(f64, u32)> = Vec::new();
+        self.bvh.ray_traverse_anyhit(ray, |_, id| {
+            if let Some(t) = enter_capsule(o, d, &self.capsules[id], Self::T_MIN) {
+                hits.push((t, self.ids[id]));
+            }
+        });
+        if hits.len() < 2 {
+            return hits.len() as u32;
+        }
+        hits.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Distances are in fiber units (mean radius 1): the same crossing lies within a diameter
+        // or so, a strand's next crossing (a curl) much farther.
+        let same = |a: &(f64, u32), b: &(f64, u32)| a.1.abs_diff(b.1) == 1 && b.0 - a.0 < 4.0;
+        let mut count = 1;
+        for k in 1..hits.len() {
+            if !hits[..k].iter().rev().take_while(|p| hits[k].0 - p.0 < 4.0).any(|p| same(p, &hits[k])) {
+                count += 1;
+            }
+        }
+        count
+    }
 }

@@ -1,6 +1,7 @@
 //! The film: per-pixel estimates and their output as EXR (with coverage, variance and sample
 //! count) and as a tone-mapped PNG.
 
+use crate::integrator::{CameraSample, Term, Terms};
 use crate::output::{write_atomically, write_png};
 use anyhow::{Context, Result, anyhow, ensure};
 use exr::prelude::*;
@@ -16,6 +17,8 @@ pub struct Film {
     pub mean: Vec<Rgb>,
     pub alpha: Vec<f64>,
     pub variance: Vec<Rgb>,
+    /// Mean radiance per [`Term`] (the diagnostic split; all zero when read from a file without it).
+    pub terms: Vec<Terms>,
 }
 
 /// Running sums of one pixel's samples.
@@ -24,13 +27,17 @@ pub struct PixelSums {
     pub sum: Rgb,
     pub sum_sq: Rgb,
     pub hits: u32,
+    pub terms: Terms,
 }
 
 impl PixelSums {
-    pub fn add(&mut self, l: Rgb, hit: bool) {
-        self.sum += l;
-        self.sum_sq += l * l;
-        self.hits += hit as u32;
+    pub fn add(&mut self, s: &CameraSample) {
+        self.sum += s.radiance;
+        self.sum_sq += s.radiance * s.radiance;
+        self.hits += s.hit_hair as u32;
+        for (t, l) in self.terms.iter_mut().zip(&s.terms) {
+            *t += *l;
+        }
     }
 }
 
@@ -48,11 +55,13 @@ impl Film {
             )
             .collect();
         let alpha = sums.iter().map(|s| s.hits as f64 / n).collect();
-        Film { width, height, spp, mean, alpha, variance }
+        let terms = sums.iter().map(|s| s.terms.map(|t| t / n)).collect();
+        Film { width, height, spp, mean, alpha, variance, terms }
     }
 
     /// Writes R, G, B, A (coverage) as 32-bit float, plus `variance.R/G/B` (variance of each
-    /// pixel's mean) and `spp` channels when `aovs` is set.
+    /// pixel's mean), `spp`, and the radiance per term (`single.R`, ..., `multiback.B`; see
+    /// [`Term`]) when `aovs` is set.
     pub fn write_exr(&self, path: &Path, aovs: bool) -> Result<()> {
         let f32s = |f: &dyn Fn(usize) -> f64| FlatSamples::F32((0..self.mean.len()).map(|i| f(i) as f32).collect());
         let mut channels = vec![
@@ -66,6 +75,12 @@ impl Film {
                 channels.push(AnyChannel::new(*name, f32s(&|i| self.variance[i].0[c])));
             }
             channels.push(AnyChannel::new("spp", f32s(&|_| self.spp as f64)));
+            for term in Term::ALL {
+                for (c, channel) in ["R", "G", "B"].iter().enumerate() {
+                    let name = format!("{}.{channel}", term.name());
+                    channels.push(AnyChannel::new(name.as_str(), f32s(&|i| self.terms[i][term as usize].0[c])));
+                }
+            }
         }
         let layer = Layer::new(
             (self.width, self.height),
@@ -105,6 +120,14 @@ impl Film {
         let (r, g, b, a) = (need("R")?, need("G")?, need("B")?, need("A")?);
         let (vr, vg, vb) = (or_zero("variance.R")?, or_zero("variance.G")?, or_zero("variance.B")?);
         let spp = channel("spp")?.and_then(|s| s.first().copied()).unwrap_or(0.0) as u32;
+        let mut terms = vec![[Rgb::ZERO; 4]; n];
+        for term in Term::ALL {
+            for (c, channel) in ["R", "G", "B"].iter().enumerate() {
+                for (t, v) in terms.iter_mut().zip(or_zero(&format!("{}.{channel}", term.name()))?) {
+                    t[term as usize].0[c] = v;
+                }
+            }
+        }
         Ok(Film {
             width,
             height,
@@ -112,6 +135,7 @@ impl Film {
             mean: (0..n).map(|i| Rgb([r[i], g[i], b[i]])).collect(),
             alpha: a,
             variance: (0..n).map(|i| Rgb([vr[i], vg[i], vb[i]])).collect(),
+            terms,
         })
     }
 

@@ -59,12 +59,12 @@ pub(crate) fn sample_lights(lights: &Lights, rng: &mut impl Rng, mut each: impl 
     }
 }
 
-/// A light sample's estimate f L / pdf for the (projected) scattering value `f` toward it,
-/// MIS-weighted against a direction sampler whose density toward it `direction_pdf` gives (not
-/// asked for a delta light, which no direction sampler can hit).
-pub(crate) fn light_estimate(s: &LightSample, f: Rgb, direction_pdf: impl FnOnce() -> f64) -> Rgb {
+/// A light sample's weight L w / pdf, MIS-weighted against a direction sampler whose density
+/// toward it `direction_pdf` gives (not asked for a delta light, which no direction sampler can
+/// hit): the estimate of the light's contribution is the (projected) scattering value times it.
+pub(crate) fn light_weight(s: &LightSample, direction_pdf: impl FnOnce() -> f64) -> Rgb {
     let w = if s.delta { 1.0 } else { power_heuristic(s.pdf, direction_pdf()) };
-    f * s.radiance * (w / s.pdf)
+    s.radiance * (w / s.pdf)
 }
 
 /// Where new rays leave a hit: just inside the fiber, which the BVH then ignores (rays only enter
@@ -82,21 +82,75 @@ pub struct PathTracer<'a> {
     pub max_depth: u32,
 }
 
-/// Radiance along a camera ray, and whether it hit hair.
+/// Radiance along a camera ray, whether it hit hair, and the radiance split into [`Term`]s.
 pub struct CameraSample {
     pub radiance: Rgb,
     pub hit_hair: bool,
+    pub terms: Terms,
+}
+
+/// The parts of a hair pixel's radiance that dual scattering models separately (Zinke et al.
+/// 2008, section 4), so that each of `dual`'s terms can be compared with the light `path` finds
+/// on the same kind of path. Events are classed at the fibers between the light and the camera
+/// fiber, not at the camera fiber itself: an event is backward when light leaves into the half of
+/// azimuths it came from (|phi| < pi/2, design section 3), else forward. Together the terms are
+/// the radiance of light scattered by hair; background seen directly is in none of them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Term {
+    /// Light scattered once, at the camera fiber (`path`: depth 1; `dual`: f_s when fully lit).
+    Single,
+    /// Light that reached the camera fiber through forward events only (`dual`: T_f d_f f_s^G).
+    Forward,
+    /// Light with exactly one backward event (`dual`: every local backscatter term, d_b f_back).
+    Back,
+    /// Light with two or more backward events (`dual` has no separate term for it: A_b's
+    /// three-event part is counted in `Back`).
+    MultiBack,
+}
+
+impl Term {
+    pub const ALL: [Term; 4] = [Term::Single, Term::Forward, Term::Back, Term::MultiBack];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Term::Single => "single",
+            Term::Forward => "forward",
+            Term::Back => "back",
+            Term::MultiBack => "multiback",
+        }
+    }
+
+    /// The term of light scattered at `vertex` fibers (1 = the camera fiber alone) with
+    /// `backward` backward events among them.
+    fn of_path(vertex: u32, backward: u32) -> Term {
+        match (vertex, backward) {
+            (1, _) => Term::Single,
+            (_, 0) => Term::Forward,
+            (_, 1) => Term::Back,
+            _ => Term::MultiBack,
+        }
+    }
+}
+
+/// Radiance per [`Term`], indexed by `Term as usize`.
+pub type Terms = [Rgb; 4];
+
+/// Whether scattering from `wi` (toward where the light comes from) into `wo` (toward where it
+/// goes), both local, is a backward event: cos(phi_o - phi_i) > 0.
+fn is_backward(wo: DVec3, wi: DVec3) -> bool {
+    wo.y * wi.y + wo.z * wi.z > 0.0
 }
 
 impl PathTracer<'_> {
-    /// Radiance carried by a light sample toward a vertex, MIS-weighted against fiber sampling.
-    fn light_contribution(&self, s: &LightSample, frame: &Frame, wo: DVec3, h: f64, from: Vec3) -> Rgb {
+    /// Radiance carried by a light sample toward a vertex, MIS-weighted against fiber sampling,
+    /// and whether it arrives by a backward event.
+    fn light_contribution(&self, s: &LightSample, frame: &Frame, wo: DVec3, h: f64, from: Vec3) -> (Rgb, bool) {
         let wi = frame.to_local(s.wi);
         let f = self.fiber.eval(wo, wi, h);
         if f.luminance() <= 0.0 || self.fibers.occluded(from, s.wi.as_vec3(), f32::INFINITY) {
-            return Rgb::ZERO;
+            return (Rgb::ZERO, false);
         }
-        light_estimate(s, f, || self.fiber.pdf(wo, wi, h))
+        (f * light_weight(s, || self.fiber.pdf(wo, wi, h)), is_backward(wo, wi))
     }
 }
 
@@ -122,7 +176,7 @@ pub(crate) fn background(lights: &Lights, dir: DVec3) -> CameraSample {
     if let Some(sun) = &lights.sun {
         radiance += sun.radiance(dir);
     }
-    CameraSample { radiance, hit_hair: false }
+    CameraSample { radiance, hit_hair: false, terms: [Rgb::ZERO; 4] }
 }
 
 impl Integrator for PathTracer<'_> {
@@ -131,27 +185,39 @@ impl Integrator for PathTracer<'_> {
             return background(self.lights, dir);
         };
         let (mut radiance, mut throughput, mut dir) = (Rgb::ZERO, Rgb::ONE, dir);
+        let mut terms = [Rgb::ZERO; 4];
+        // Backward events at the vertices after the camera fiber's, so far.
+        let mut backward = 0;
         for depth in 1..=self.max_depth {
             let frame = Frame::new(hit.tangent);
             let wo = frame.to_local(-dir);
             let h = h_offset(wo, frame.to_local(hit.normal.as_dvec3()));
             let from = spawn_point(&hit);
+            // Backward events counting this vertex's, for light arriving from `wi`.
+            let events = |back: bool| backward + (depth > 1 && back) as u32;
 
             sample_lights(self.lights, rng, |s| {
-                radiance += throughput * self.light_contribution(s, &frame, wo, h, from)
+                let (l, back) = self.light_contribution(s, &frame, wo, h, from);
+                let l = throughput * l;
+                radiance += l;
+                terms[Term::of_path(depth, events(back)) as usize] += l;
             });
 
             // Continue by sampling the fiber.
             let Some(s) = self.fiber.sample(wo, h, rng.random()) else { break };
             throughput = throughput * s.weight();
             dir = frame.to_world(s.wi).normalize();
+            let this = events(is_backward(wo, s.wi));
             match self.fibers.closest_hit(from, dir.as_vec3(), f32::INFINITY) {
                 None => {
-                    radiance += throughput * seen_lights(self.lights, dir, s.pdf);
+                    let l = throughput * seen_lights(self.lights, dir, s.pdf);
+                    radiance += l;
+                    terms[Term::of_path(depth, this) as usize] += l;
                     break;
                 }
                 Some(next) => hit = next,
             }
+            backward = this;
             if depth == self.max_depth {
                 break;
             }
@@ -164,6 +230,29 @@ impl Integrator for PathTracer<'_> {
                 throughput = throughput / survive;
             }
         }
-        CameraSample { radiance, hit_hair: true }
+        CameraSample { radiance, hit_hair: true, terms }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use precompute::conventions::direction;
+    use std::f64::consts::PI;
+
+    #[test]
+    fn events_are_backward_within_a_quarter_turn_of_the_light() {
+        // Light arriving from azimuth 0 (wi points toward it): leaving within pi/2 of it is
+        // backward, beyond is forward, whatever the inclinations.
+        for (theta_i, theta_o) in [(0.0, 0.0), (0.7, -0.3), (-1.2, 1.4)] {
+            let wi = direction(theta_i, 0.0);
+            for (phi, back) in [(0.0, true), (1.5, true), (-1.5, true), (1.65, false), (PI, false), (-2.0, false)] {
+                assert_eq!(is_backward(direction(theta_o, phi), wi), back, "phi {phi}");
+            }
+        }
+        assert_eq!(Term::of_path(1, 3), Term::Single);
+        assert_eq!(Term::of_path(4, 0), Term::Forward);
+        assert_eq!(Term::of_path(2, 1), Term::Back);
+        assert_eq!(Term::of_path(5, 2), Term::MultiBack);
     }
 }

@@ -5,6 +5,7 @@
 //! `precompute` crate.
 
 pub mod cache;
+pub mod calibrate_cmd;
 pub mod camera;
 pub mod compare;
 pub mod converge_cmd;

@@ -1,4 +1,5 @@
 use clap::{Parser, Subcommand};
+use dualhair::calibrate_cmd::{self, CalibrateArgs};
 use dualhair::converge_cmd::{self, ConvergeArgs};
 use dualhair::lobe_cmd::{self, LobeArgs};
 use dualhair::precompute_cmd::{self, PrecomputeCommand};
@@ -24,6 +25,8 @@ enum Command {
     Lobe(LobeArgs),
     /// Compare methods: error vs. spp and vs. wall time, with tables and charts.
     Converge(ConvergeArgs),
+    /// Fit dual's d_f and d_b to a path-traced reference of a scene.
+    Calibrate(CalibrateArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -33,6 +36,7 @@ fn main() -> std::process::ExitCode {
         Command::Precompute(command) => precompute_cmd::run(command),
         Command::Lobe(args) => lobe_cmd::run(args),
         Command::Converge(args) => converge_cmd::run(args),
+        Command::Calibrate(args) => calibrate_cmd::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -28,8 +28,8 @@ pub enum PrecomputeCommand {
 pub struct TablesArgs {
     #[command(flatten)]
     pub fiber: FiberArgs,
-    /// Backscatter density factor d_b used in sigma_b (Zinke et al. 2008).
-    #[arg(long, default_value_t = 0.7, allow_negative_numbers = true)]
+    /// Backscatter density factor d_b used in sigma_b (Zinke et al. 2008); scenes default to 1.
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub d_b: f64,
     /// Number of light inclinations (default: accurate to 0.1% under linear interpolation).
     #[arg(long)]

@@ -35,7 +35,7 @@ pub fn render(camera: &Camera, tracer: &impl Integrator, spp: u32, seed: u64, pr
             for _ in 0..spp {
                 let (o, d) = camera.ray(x as f64 + rng.random::<f64>(), y as f64 + rng.random::<f64>());
                 let s = tracer.radiance(o, d, &mut rng);
-                px.add(s.radiance, s.hit_hair);
+                px.add(&s);
             }
         }
         bar.inc(1);

@@ -1,7 +1,7 @@
 //! `dualhair render`: renders a scene file to EXR and PNG.
 
 use crate::cache::Cache;
-use crate::dual::DualScattering;
+use crate::dual::{AUTO_SINGLE_BELOW, DualModel, DualScattering, predicted_multiple_share};
 use crate::film::Film;
 use crate::integrator::PathTracer;
 use crate::output::ImageFormat;
@@ -44,6 +44,9 @@ pub struct RenderArgs {
     /// Backscattering density factor d_b in [0, 1] (dual integrator).
     #[arg(long)]
     pub d_b: Option<f64>,
+    /// Dual-scattering model (dual integrator; default: the scene's, else two_stream).
+    #[arg(long, value_enum)]
+    pub model: Option<DualModel>,
     /// Image width in pixels.
     #[arg(long)]
     pub width: Option<usize>,
@@ -88,6 +91,7 @@ pub fn scene_file(args: &RenderArgs) -> Result<SceneFile> {
     r.max_depth = args.max_depth.unwrap_or(r.max_depth);
     file.dual.d_f = args.d_f.unwrap_or(file.dual.d_f);
     file.dual.d_b = args.d_b.unwrap_or(file.dual.d_b);
+    file.dual.model = args.model.unwrap_or(file.dual.model);
     file.camera.width = args.width.unwrap_or(file.camera.width);
     file.camera.height = args.height.unwrap_or(file.camera.height);
     Ok(file)
@@ -117,6 +121,26 @@ impl DualInputs {
     }
 }
 
+/// Resolves `auto` to `single` or `dual` from the multiple scattering the fiber's tables
+/// predict ([`predicted_multiple_share`]); returns the reason, or `None` for any other integrator.
+pub fn resolve_auto(scene: &mut Scene, cache: &Cache, progress: bool) -> Result<Option<String>> {
+    if scene.render.integrator != IntegratorKind::Auto {
+        return Ok(None);
+    }
+    let share = predicted_multiple_share(&cache.tables(&scene.fiber, scene.dual.d_b, progress)?);
+    let (kind, why) = if share < AUTO_SINGLE_BELOW {
+        (IntegratorKind::Single, "below")
+    } else {
+        (IntegratorKind::Dual, "at or above")
+    };
+    scene.render.integrator = kind;
+    Ok(Some(format!(
+        "auto: {kind:?}: the fiber's tables predict {:.1}% of the light from multiple scattering, {why} the {:.0}% threshold",
+        100.0 * share,
+        100.0 * AUTO_SINGLE_BELOW
+    )))
+}
+
 /// Renders a built scene with its own settings, on the current rayon pool. The dual integrator's
 /// tables and density grid come from `cache` (computed there when missing).
 pub fn render_scene(scene: &Scene, cache: &Cache, progress: bool) -> Result<Film> {
@@ -138,6 +162,7 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
             grid: &inputs.grid,
             d_f: d.d_f,
             d_b: d.d_b,
+            model: d.model,
             sampling: scene.render.sampling,
         };
         return Ok(render(&scene.camera, &dual, spp, seed, progress));
@@ -146,6 +171,7 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
         IntegratorKind::Single => 1,
         IntegratorKind::Path => scene.render.max_depth,
         IntegratorKind::Dual => bail!("the dual integrator needs its tables and density grid"),
+        IntegratorKind::Auto => bail!("`auto` must be resolved to an integrator first (resolve_auto)"),
     };
     let uniform = UniformSampled(chiang.clone());
     let fiber: &dyn FiberModel = match scene.render.sampling {
@@ -160,13 +186,17 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
 pub fn run(args: &RenderArgs) -> Result<()> {
     let (exr, png) = output_paths(args.output.as_deref())?;
     let start = Instant::now();
-    let scene = scene_file(args)?.build()?;
+    let mut scene = scene_file(args)?.build()?;
+    let cache = Cache::default_location();
+    if let Some(why) = resolve_auto(&mut scene, &cache, !args.quiet)? {
+        println!("{why}");
+    }
     let setup = start.elapsed();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0))
         .build()
         .context("cannot start the worker threads")?;
-    let film = pool.install(|| render_scene(&scene, &Cache::default_location(), !args.quiet))?;
+    let film = pool.install(|| render_scene(&scene, &cache, !args.quiet))?;
     film.write_exr(&exr, args.aovs)?;
     film.write_png(&png, scene.render.exposure)?;
     println!(

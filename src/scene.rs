@@ -3,6 +3,7 @@
 //! Unknown fields are errors; bad values are errors that name the field.
 
 use crate::camera::Camera;
+use crate::dual::DualModel;
 use crate::fibers::Fibers;
 use crate::light::{EnvMap, Environment, Lights, Sun};
 use anyhow::{Context, Result, bail, ensure};
@@ -132,6 +133,9 @@ pub enum IntegratorKind {
     Path,
     /// Dual-scattering approximation of multiple scattering (Zinke et al. 2008).
     Dual,
+    /// `single` where the fiber's tables predict little multiple scattering (dark hair), else
+    /// `dual`; the render says which and why.
+    Auto,
 }
 
 #[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, clap::ValueEnum)]
@@ -153,6 +157,8 @@ pub struct DualSpec {
     pub d_f: f64,
     /// Backscattering density factor d_b in [0, 1].
     pub d_b: f64,
+    /// How the light that reaches a fiber through other fibers is modelled.
+    pub model: DualModel,
     /// Voxel size of the density grid in scene units (default: chosen from the hair).
     pub voxel_size: Option<f64>,
     /// A density grid made elsewhere: an OpenVDB file with a float grid `density` of hair length
@@ -163,7 +169,7 @@ pub struct DualSpec {
 
 impl Default for DualSpec {
     fn default() -> Self {
-        DualSpec { d_f: 0.7, d_b: 0.7, voxel_size: None, density_grid: None }
+        DualSpec { d_f: 1.0, d_b: 1.0, model: DualModel::TwoStream, voxel_size: None, density_grid: None }
     }
 }
 

@@ -4,9 +4,10 @@
 
 use dualhair::cache::Cache;
 use dualhair::compare::hair_pixels;
+use dualhair::dual::DualModel;
 use dualhair::film::Film;
 use dualhair::render_cmd::render_scene;
-use dualhair::scene::{IntegratorKind, Sampling, SceneFile};
+use dualhair::scene::{DualSpec, IntegratorKind, Sampling, SceneFile};
 use precompute::fiber::FiberParams;
 use std::path::Path;
 
@@ -33,15 +34,18 @@ fn bundled(name: &str, size: usize, spp: u32) -> SceneFile {
 fn without_multiple_scattering_dual_is_single() {
     // d_f = d_b = 0: F = f_s where lit and 0 in shadow, drawn with the same random numbers, so
     // the images must match pixel for pixel (HDRI plus a sun, both samplers).
-    for sampling in [Sampling::Importance, Sampling::Uniform] {
+    for (sampling, model) in [
+        (Sampling::Importance, DualModel::TwoStream),
+        (Sampling::Uniform, DualModel::Zinke2008),
+        (Sampling::Importance, DualModel::Fibers),
+    ] {
         let mut single = bundled("brown", 40, 4);
         single.lights.sun = Some(serde_json::from_str(r#"{"direction": [-0.5, -1, 0.6], "irradiance": 1.5}"#).unwrap());
         single.render.sampling = sampling;
         single.render.integrator = IntegratorKind::Single;
         let mut dual = single.clone();
         dual.render.integrator = IntegratorKind::Dual;
-        dual.dual.d_f = 0.0;
-        dual.dual.d_b = 0.0;
+        dual.dual = DualSpec { d_f: 0.0, d_b: 0.0, model, ..DualSpec::default() };
         let (a, b) = (render(&single), render(&dual));
         assert!(a.alpha == b.alpha);
         let worst = a
@@ -52,12 +56,13 @@ fn without_multiple_scattering_dual_is_single() {
             .fold(0.0, f64::max);
         println!("{sampling:?}: worst relative pixel difference {worst:e}");
         assert!(worst < 1e-12, "{sampling:?}: dual with d_f = d_b = 0 differs from single by {worst}");
-        // With the default factors dual adds light.
-        dual.dual.d_f = 0.7;
-        dual.dual.d_b = 0.7;
-        let c = render(&dual);
-        let sum = |f: &Film| hair_pixels(f).iter().map(|&i| f.mean[i].luminance()).sum::<f64>();
-        assert!(sum(&c) > 1.02 * sum(&a), "dual adds no multiple scattering");
+        // With the default factors every model adds light.
+        for model in [DualModel::Zinke2008, DualModel::TwoStream, DualModel::Fibers] {
+            dual.dual = DualSpec { model, ..DualSpec::default() };
+            let c = render(&dual);
+            let sum = |f: &Film| hair_pixels(f).iter().map(|&i| f.mean[i].luminance()).sum::<f64>();
+            assert!(sum(&c) > 1.02 * sum(&a), "dual {model:?} adds no multiple scattering");
+        }
     }
 }
 

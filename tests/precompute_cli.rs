@@ -33,7 +33,7 @@ fn tables_export_json_csv_and_charts() {
         let sum = json["a_f"]["g"][k].as_f64().unwrap() + json["a_b"]["g"][k].as_f64().unwrap();
         assert!((sum - 1.0).abs() < 2e-3, "entry {k}: a_f + a_b = {sum}");
     }
-    assert_eq!(json["d_b"], 0.7);
+    assert_eq!(json["d_b"], 1.0);
     assert_eq!(json["fiber"]["absorption"]["sigma_a"][0], 0.0);
 
     ok(&dualhair(&[

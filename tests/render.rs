@@ -2,9 +2,12 @@
 //! uniform fiber sampling converging to the same image, thread-count independence, bad scenes.
 
 use dualhair::cache::Cache;
+use dualhair::compare::hair_pixels;
 use dualhair::film::Film;
+use dualhair::integrator::Term;
 use dualhair::render_cmd::render_scene;
 use dualhair::scene::{EnvSpec, IntegratorKind, LightsSpec, Sampling, SceneFile};
+use precompute::spectrum::Rgb;
 use std::path::Path;
 use std::process::Command;
 
@@ -71,6 +74,39 @@ fn single_is_path_at_depth_one() {
     path.render.max_depth = 512;
     let full = render(&path);
     assert!(hair_mean(&full).0 > 1.05 * hair_mean(&a).0);
+}
+
+#[test]
+fn radiance_splits_into_terms_the_way_dual_scattering_does() {
+    let sum = |t: &[Rgb; 4]| t.iter().fold(Rgb::ZERO, |a, b| a + *b);
+    let close = |a: Rgb, b: Rgb| (0..3).all(|c| (a.0[c] - b.0[c]).abs() <= 1e-9 * b.0[c].abs() + 1e-12);
+    let total = |f: &Film, t: Term| f.terms.iter().map(|p| p[t as usize].luminance()).sum::<f64>();
+    let mut file = scene_from(BROWN_CURLS);
+    for integrator in [IntegratorKind::Path, IntegratorKind::Dual] {
+        file.render.integrator = integrator;
+        let film = render(&file);
+        // Where every sample hit hair (the background seen directly is in no term).
+        let hair = hair_pixels(&film);
+        assert!(hair.len() > 500 && hair.iter().all(|&i| close(sum(&film.terms[i]), film.mean[i])), "{integrator:?}");
+        let shares = Term::ALL.map(|t| total(&film, t));
+        println!("{integrator:?}: luminance per term {shares:?}");
+        assert!(shares[..3].iter().all(|&s| s > 0.0), "{integrator:?}: a term is empty");
+        // dual's backscatter is one term.
+        assert_eq!(shares[3] == 0.0, integrator == IntegratorKind::Dual);
+        // The term channels survive the EXR (as 32-bit floats).
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.exr");
+        film.write_exr(&path, true).unwrap();
+        let back = Film::read_exr(&path).unwrap();
+        for (a, b) in back.terms.iter().flatten().zip(film.terms.iter().flatten()) {
+            assert!((0..3).all(|c| (a.0[c] - b.0[c]).abs() <= 1e-6 * b.0[c].abs()));
+        }
+    }
+    // Single scattering is all `single`.
+    file.render.integrator = IntegratorKind::Single;
+    let film = render(&file);
+    let t = &film.terms;
+    assert!(hair_pixels(&film).iter().all(|&i| t[i][0] == film.mean[i] && t[i][1..] == [Rgb::ZERO; 3]));
 }
 
 #[test]

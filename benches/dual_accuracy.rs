@@ -36,7 +36,8 @@ fn env_or<T: std::str::FromStr>(key: &str, default: T) -> T {
 /// Renders a scene file, timing the render alone (not building the scene or loading the tables
 /// and grid, which the cache holds after the first render).
 fn timed_render(file: &SceneFile, cache: &Cache) -> (Film, f64) {
-    let scene = file.build().unwrap();
+    let mut scene = file.build().unwrap();
+    scene.render.terms = true;
     let inputs = DualInputs::load(&scene, cache, false).unwrap();
     let start = Instant::now();
     let film = render_prepared(&scene, inputs.as_ref(), false).unwrap();

@@ -108,6 +108,7 @@ fn errors(test: &Film, reference: &Film) -> (f64, f64) {
 fn dual(file: &SceneFile, d_f: f64, d_b: f64, cache: &Cache, progress: bool) -> Result<Film> {
     let mut f = file.clone();
     f.render.integrator = IntegratorKind::Dual;
+    f.render.terms = true;
     (f.dual.d_f, f.dual.d_b) = (d_f, d_b);
     render_scene(&f.build()?, cache, progress)
 }

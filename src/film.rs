@@ -1,7 +1,7 @@
 //! The film: per-pixel estimates and their output as EXR (with coverage, variance and sample
 //! count) and as a tone-mapped PNG.
 
-use crate::integrator::{CameraSample, Term, Terms};
+use crate::integrator::{Term, Terms};
 use crate::output::{write_atomically, write_png};
 use anyhow::{Context, Result, anyhow, ensure};
 use exr::prelude::*;
@@ -17,7 +17,8 @@ pub struct Film {
     pub mean: Vec<Rgb>,
     pub alpha: Vec<f64>,
     pub variance: Vec<Rgb>,
-    /// Mean radiance per [`Term`] (the diagnostic split; all zero when read from a file without it).
+    /// Mean radiance per [`Term`] (the diagnostic split), when the render collected it; empty
+    /// otherwise.
     pub terms: Vec<Terms>,
 }
 
@@ -27,22 +28,19 @@ pub struct PixelSums {
     pub sum: Rgb,
     pub sum_sq: Rgb,
     pub hits: u32,
-    pub terms: Terms,
 }
 
 impl PixelSums {
-    pub fn add(&mut self, s: &CameraSample) {
-        self.sum += s.radiance;
-        self.sum_sq += s.radiance * s.radiance;
-        self.hits += s.hit_hair as u32;
-        for (t, l) in self.terms.iter_mut().zip(&s.terms) {
-            *t += *l;
-        }
+    pub fn add(&mut self, l: Rgb, hit: bool) {
+        self.sum += l;
+        self.sum_sq += l * l;
+        self.hits += hit as u32;
     }
 }
 
 impl Film {
-    pub fn from_sums(width: usize, height: usize, spp: u32, sums: &[PixelSums]) -> Film {
+    /// The film from each pixel's sums, and its sums per term (empty when not collected).
+    pub fn from_sums(width: usize, height: usize, spp: u32, sums: &[PixelSums], term_sums: &[Terms]) -> Film {
         let n = spp as f64;
         let mean: Vec<Rgb> = sums.iter().map(|s| s.sum / n).collect();
         let variance = sums
@@ -55,13 +53,13 @@ impl Film {
             )
             .collect();
         let alpha = sums.iter().map(|s| s.hits as f64 / n).collect();
-        let terms = sums.iter().map(|s| s.terms.map(|t| t / n)).collect();
+        let terms = term_sums.iter().map(|s| s.map(|t| t / n)).collect();
         Film { width, height, spp, mean, alpha, variance, terms }
     }
 
     /// Writes R, G, B, A (coverage) as 32-bit float, plus `variance.R/G/B` (variance of each
-    /// pixel's mean), `spp`, and the radiance per term (`single.R`, ..., `multiback.B`; see
-    /// [`Term`]) when `aovs` is set.
+    /// pixel's mean), `spp`, and the radiance per term when collected (`single.R`, ...,
+    /// `multiback.B`; see [`Term`]) when `aovs` is set.
     pub fn write_exr(&self, path: &Path, aovs: bool) -> Result<()> {
         let f32s = |f: &dyn Fn(usize) -> f64| FlatSamples::F32((0..self.mean.len()).map(|i| f(i) as f32).collect());
         let mut channels = vec![
@@ -75,9 +73,9 @@ impl Film {
                 channels.push(AnyChannel::new(*name, f32s(&|i| self.variance[i].0[c])));
             }
             channels.push(AnyChannel::new("spp", f32s(&|_| self.spp as f64)));
-            for term in Term::ALL {
+            for term in Term::ALL.iter().filter(|_| !self.terms.is_empty()) {
                 for (c, channel) in ["R", "G", "B"].iter().enumerate() {
-                    let name = format!("{}.{channel}", term.name());
+                    let (term, name) = (*term, format!("{}.{channel}", term.name()));
                     channels.push(AnyChannel::new(name.as_str(), f32s(&|i| self.terms[i][term as usize].0[c])));
                 }
             }
@@ -120,8 +118,9 @@ impl Film {
         let (r, g, b, a) = (need("R")?, need("G")?, need("B")?, need("A")?);
         let (vr, vg, vb) = (or_zero("variance.R")?, or_zero("variance.G")?, or_zero("variance.B")?);
         let spp = channel("spp")?.and_then(|s| s.first().copied()).unwrap_or(0.0) as u32;
-        let mut terms = vec![[Rgb::ZERO; 4]; n];
-        for term in Term::ALL {
+        let collected = channel("single.R")?.is_some();
+        let mut terms = vec![Terms::default(); if collected { n } else { 0 }];
+        for term in Term::ALL.iter().copied().filter(|_| collected) {
             for (c, channel) in ["R", "G", "B"].iter().enumerate() {
                 for (t, v) in terms.iter_mut().zip(or_zero(&format!("{}.{channel}", term.name()))?) {
                     t[term as usize].0[c] = v;

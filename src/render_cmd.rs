@@ -56,7 +56,8 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Also write per-pixel variance (variance.R/G/B) and sample-count (spp) channels to the EXR.
+    /// Also write per-pixel variance (variance.R/G/B), sample-count (spp) and the radiance split
+    /// into the terms of dual scattering (single, forward, back, multiback: .R/.G/.B) to the EXR.
     #[arg(long)]
     pub aovs: bool,
     /// Hide the progress bar.
@@ -165,7 +166,7 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
             model: d.model,
             sampling: scene.render.sampling,
         };
-        return Ok(render(&scene.camera, &dual, spp, seed, progress));
+        return Ok(render(&scene.camera, &dual, spp, seed, progress, scene.render.terms));
     }
     let max_depth = match scene.render.integrator {
         IntegratorKind::Single => 1,
@@ -180,13 +181,14 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
         Sampling::Light => bail!("light sampling alone needs the dual integrator"),
     };
     let tracer = PathTracer { fibers: &scene.fibers, fiber, lights: &scene.lights, max_depth };
-    Ok(render(&scene.camera, &tracer, spp, seed, progress))
+    Ok(render(&scene.camera, &tracer, spp, seed, progress, scene.render.terms))
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
     let (exr, png) = output_paths(args.output.as_deref())?;
     let start = Instant::now();
     let mut scene = scene_file(args)?.build()?;
+    scene.render.terms = args.aovs;
     let cache = Cache::default_location();
     if let Some(why) = resolve_auto(&mut scene, &cache, !args.quiet)? {
         println!("{why}");

@@ -184,6 +184,10 @@ pub struct RenderSpec {
     pub sampling: Sampling,
     /// PNG exposure in stops.
     pub exposure: f64,
+    /// Also collect each pixel's light per dual-scattering term (`Term`; `render --aovs`,
+    /// `calibrate`): 96 more bytes a pixel, so off unless asked for.
+    #[serde(skip)]
+    pub terms: bool,
 }
 
 impl Default for RenderSpec {
@@ -195,6 +199,7 @@ impl Default for RenderSpec {
             max_depth: 512,
             sampling: Sampling::Importance,
             exposure: 0.0,
+            terms: false,
         }
     }
 }

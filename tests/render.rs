@@ -82,6 +82,7 @@ fn radiance_splits_into_terms_the_way_dual_scattering_does() {
     let close = |a: Rgb, b: Rgb| (0..3).all(|c| (a.0[c] - b.0[c]).abs() <= 1e-9 * b.0[c].abs() + 1e-12);
     let total = |f: &Film, t: Term| f.terms.iter().map(|p| p[t as usize].luminance()).sum::<f64>();
     let mut file = scene_from(BROWN_CURLS);
+    file.render.terms = true;
     for integrator in [IntegratorKind::Path, IntegratorKind::Dual] {
         file.render.integrator = integrator;
         let film = render(&file);

@@ -1,25 +1,13 @@
 //! `calibrate` recovers known density factors and lowers the error against a path-traced
 //! reference; `auto` picks single scattering for black hair and dual scattering for blond.
 
-use dualhair::cache::Cache;
 use dualhair::calibrate_cmd::calibrate;
-use dualhair::render_cmd::{render_scene, resolve_auto};
+use dualhair::render_cmd::resolve_auto;
 use dualhair::scene::{IntegratorKind, SceneFile};
-use std::path::Path;
 
-const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+mod common;
 
-fn cache() -> Cache {
-    Cache::at(format!("{}/dualhair-cache", env!("CARGO_TARGET_TMPDIR")))
-}
-
-fn bundled(name: &str, size: usize, spp: u32) -> SceneFile {
-    let mut file = SceneFile::load(Path::new(&format!("{ROOT}/scenes/{name}.json"))).unwrap();
-    file.camera.width = size;
-    file.camera.height = size;
-    file.render.spp = spp;
-    file
-}
+use common::{ROOT, bundled, cache, render};
 
 #[test]
 fn calibrate_recovers_the_factors_of_a_synthetic_target() {
@@ -28,7 +16,7 @@ fn calibrate_recovers_the_factors_of_a_synthetic_target() {
     let file = bundled("brown", 24, 16);
     let mut target = file.clone();
     (target.dual.d_f, target.dual.d_b) = (0.4, 0.8);
-    let target = render_scene(&target.build().unwrap(), &cache(), false).unwrap();
+    let target = render(&target);
     let c = calibrate(&file, Some(target), 0, &cache(), false).unwrap();
     println!("{c:?}");
     assert!((c.d_f - 0.4).abs() < 0.02, "d_f {}", c.d_f);

@@ -6,29 +6,12 @@ use dualhair::cache::Cache;
 use dualhair::compare::hair_pixels;
 use dualhair::dual::DualModel;
 use dualhair::film::Film;
-use dualhair::render_cmd::render_scene;
-use dualhair::scene::{DualSpec, IntegratorKind, Sampling, SceneFile};
+use dualhair::scene::{DualSpec, IntegratorKind, Sampling};
 use precompute::fiber::FiberParams;
-use std::path::Path;
 
-const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+mod common;
 
-fn cache() -> Cache {
-    Cache::at(format!("{}/dualhair-cache", env!("CARGO_TARGET_TMPDIR")))
-}
-
-fn render(file: &SceneFile) -> Film {
-    render_scene(&file.build().unwrap(), &cache(), false).unwrap()
-}
-
-/// A bundled scene, made small.
-fn bundled(name: &str, size: usize, spp: u32) -> SceneFile {
-    let mut file = SceneFile::load(Path::new(&format!("{ROOT}/scenes/{name}.json"))).unwrap();
-    file.camera.width = size;
-    file.camera.height = size;
-    file.render.spp = spp;
-    file
-}
+use common::{ROOT, bundled, render};
 
 #[test]
 fn without_multiple_scattering_dual_is_single() {

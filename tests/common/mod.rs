@@ -1,0 +1,28 @@
+//! Helpers shared by the integration tests that render the bundled scenes.
+
+use dualhair::cache::Cache;
+use dualhair::film::Film;
+use dualhair::render_cmd::render_scene;
+use dualhair::scene::SceneFile;
+use std::path::Path;
+
+pub const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+
+/// The dual integrator's tables and grids, shared by the tests and kept between runs.
+pub fn cache() -> Cache {
+    Cache::at(format!("{}/dualhair-cache", env!("CARGO_TARGET_TMPDIR")))
+}
+
+/// A bundled scene, made small.
+pub fn bundled(name: &str, size: usize, spp: u32) -> SceneFile {
+    let mut file = SceneFile::load(Path::new(&format!("{ROOT}/scenes/{name}.json"))).unwrap();
+    file.camera.width = size;
+    file.camera.height = size;
+    file.render.spp = spp;
+    file
+}
+
+/// Renders a scene file with its own settings.
+pub fn render(file: &SceneFile) -> Film {
+    render_scene(&file.build().unwrap(), &cache(), false).unwrap()
+}

@@ -82,7 +82,8 @@ pub enum Transmittance {
 }
 
 /// The dual-scattering model: Zinke et al. 2008 read literally, the measured default, and the
-/// other variants of the README's ablation table (issue 11), each one change from its row above.
+/// other variants of the README's ablation table (issue 11). The first four each change one thing
+/// from the one before; the last three each change one thing in `poisson`.
 #[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 #[value(rename_all = "snake_case")]
@@ -113,6 +114,7 @@ impl DualModel {
         self == DualModel::Zinke2008
     }
 
+    /// How the fibers toward the light are counted and turned into T_f.
     pub fn transmittance_kind(self) -> Transmittance {
         match self {
             DualModel::Zinke2008 | DualModel::DfOnce => Transmittance::Grid,

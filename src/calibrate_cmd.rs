@@ -145,7 +145,12 @@ pub fn calibrate(
     let full = dual(file, 1.0, 1.0, cache, progress)?;
     let half = dual(file, 0.5, 1.0, cache, progress)?;
     let (d_f, d_b) = fit(&reference, &full, &half, k);
-    let before = errors(&dual(file, file.dual.d_f, file.dual.d_b, cache, progress)?, &reference);
+    // The scene's own factors are often the defaults, (1, 1): that render is `full` already.
+    let before = if (file.dual.d_f, file.dual.d_b) == (1.0, 1.0) {
+        errors(&full, &reference)
+    } else {
+        errors(&dual(file, file.dual.d_f, file.dual.d_b, cache, progress)?, &reference)
+    };
     let after = errors(&dual(file, d_f, d_b, cache, progress)?, &reference);
     Ok(Calibration { d_f, d_b, before, after })
 }

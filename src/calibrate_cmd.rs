@@ -98,10 +98,12 @@ pub fn fit(target: &Film, full: &Film, half: &Film, k: i32) -> (f64, f64) {
     (best.1.powf(1.0 / k as f64), best.2)
 }
 
-/// (mean luminance ratio, 4x4-block relative RMSE) of `test` against `reference`.
+/// (mean luminance ratio, 4x4-block relative RMSE) of `test` against `reference`, which
+/// [`calibrate`] has checked covers a block fully.
 fn errors(test: &Film, reference: &Film) -> (f64, f64) {
     let pixels = hair_pixels(reference);
-    (mean_luminance(test, &pixels) / mean_luminance(reference, &pixels), block_relative_rmse(test, reference, 4).0)
+    let blocks = block_relative_rmse(test, reference, 4).expect("calibrate checked the reference's blocks");
+    (mean_luminance(test, &pixels) / mean_luminance(reference, &pixels), blocks.0)
 }
 
 /// Renders `file` with `dual` at the given factors.
@@ -140,7 +142,10 @@ pub fn calibrate(
         file.camera.width,
         file.camera.height
     );
-    ensure!(!hair_pixels(&reference).is_empty(), "the reference has no pixel fully covered by hair");
+    ensure!(
+        block_relative_rmse(&reference, &reference, 4).is_some(),
+        "hair covers no 4x4-pixel block of the reference fully: use a larger --size or frame the hair closer"
+    );
     let k = if file.dual.model.d_f_twice() { 2 } else { 1 };
     let full = dual(file, 1.0, 1.0, cache, progress)?;
     let half = dual(file, 0.5, 1.0, cache, progress)?;

@@ -74,14 +74,18 @@ fn block_means(film: &Film, reference: &Film, block: usize) -> Vec<(Rgb, Rgb)> {
 
 /// Relative RMSE of `block` x `block` pixel block means over the blocks `reference` covers
 /// fully (all channels), and the part both images' noise explains: the accuracy measure of
-/// issue 11, steadier than per-pixel errors where a pixel holds only a few fibers.
-pub fn block_relative_rmse(test: &Film, reference: &Film, block: usize) -> (f64, f64) {
+/// issue 11, steadier than per-pixel errors where a pixel holds only a few fibers. `None` when
+/// the reference covers no block fully.
+pub fn block_relative_rmse(test: &Film, reference: &Film, block: usize) -> Option<(f64, f64)> {
     let (t, r) = (block_means(test, reference, block), block_means(reference, reference, block));
+    if r.is_empty() {
+        return None;
+    }
     let k = (3 * r.len()) as f64;
     let mean = r.iter().map(|b| b.0.0.iter().sum::<f64>()).sum::<f64>() / k;
     let mse = t.iter().zip(&r).map(|(a, b)| (a.0 - b.0).0.iter().map(|d| d * d).sum::<f64>()).sum::<f64>() / k;
     let noise = t.iter().zip(&r).map(|(a, b)| (a.1 + b.1).0.iter().sum::<f64>()).sum::<f64>() / k;
-    (mse.sqrt() / mean, noise.sqrt() / mean)
+    Some((mse.sqrt() / mean, noise.sqrt() / mean))
 }
 
 #[cfg(test)]
@@ -126,11 +130,13 @@ mod tests {
         let reference = film(4, &[1.0, 3.0, 1.0, 1.0, 1.0, 3.0, 1.0, 1.0], &[1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5]);
         let test = film(4, &[2.0, 2.0, 9.0, 9.0, 4.0, 4.0, 9.0, 9.0], &[1.0; 8]);
         // Left block means: reference 2 (R), 4 (G), 0 (B); test 3, 6, 0. Differences 1, 2, 0.
-        let (rmse, noise) = block_relative_rmse(&test, &reference, 2);
+        let (rmse, noise) = block_relative_rmse(&test, &reference, 2).unwrap();
         assert!((rmse - (5.0f64 / 3.0).sqrt() / 2.0).abs() < 1e-12, "{rmse}");
         // Each image's block-mean variance per channel is the pixel variance / 4: (0.5 + 0.25) / 4
         // summed over channels, from both images, over 3 channels.
         assert!((noise - (2.0 * 0.75 / 4.0 / 3.0f64).sqrt() / 2.0).abs() < 1e-12, "{noise}");
+        // No block covered fully: no measure.
+        assert!(block_relative_rmse(&test, &reference, 4).is_none());
     }
 
     #[test]

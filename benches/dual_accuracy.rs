@@ -15,7 +15,8 @@
 //!
 //! Settings: DUALHAIR_ACC_SIZE (pixels, default 48), DUALHAIR_ACC_REF_SPP (default 8192),
 //! DUALHAIR_ACC_DUAL_SPP (default 2048), DUALHAIR_ACC_MODELS (comma-separated variants, each
-//! `NAME` or `NAME@D_F/D_B`, NAME as for `render --model`; default `zinke2008@0.7/0.7,two_stream`),
+//! `NAME[@D_F/D_B][:SHADOWS]`, NAME as for `render --model`, SHADOWS `lookup` (default) or `rays`;
+//! default `zinke2008@0.7/0.7:rays,two_stream:rays,two_stream`),
 //! DUALHAIR_ACC_GROOMS (comma-separated .hair files). References are kept in `target/dual-accuracy/` and reused by
 //! name, size and spp: delete that folder after changing the path tracer or a scene.
 
@@ -25,7 +26,7 @@ use dualhair::dual::DualModel;
 use dualhair::film::Film;
 use dualhair::integrator::Term;
 use dualhair::render_cmd::{DualInputs, render_prepared};
-use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, OneOrRgb, SceneFile, SunSpec};
+use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, OneOrRgb, SceneFile, ShadowMode, SunSpec};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -81,7 +82,7 @@ fn main() {
     let filter = std::env::args().skip(1).find(|a| !a.starts_with('-')).unwrap_or_default();
     let size: usize = env_or("DUALHAIR_ACC_SIZE", 48);
     let (ref_spp, dual_spp): (u32, u32) = (env_or("DUALHAIR_ACC_REF_SPP", 8192), env_or("DUALHAIR_ACC_DUAL_SPP", 2048));
-    let models: String = env_or("DUALHAIR_ACC_MODELS", "zinke2008@0.7/0.7,two_stream".to_string());
+    let models: String = env_or("DUALHAIR_ACC_MODELS", "zinke2008@0.7/0.7:rays,two_stream:rays,two_stream".to_string());
     let grooms: String = env_or("DUALHAIR_ACC_GROOMS", String::new());
     let root = env!("CARGO_MANIFEST_DIR");
     let cache = Cache::at(format!("{}/dualhair-cache", env!("CARGO_TARGET_TMPDIR")));
@@ -133,12 +134,14 @@ fn main() {
             let shares = |film: &Film| term_means(film, &pixels).map(|t| format!("{:.3}", t / total)).join(" | ");
             println!("| {hair} | {light} | path | - | {} | 1 | - |", shares(&reference));
             for spec in models.split(',') {
-                let (model, d) = spec.split_once('@').unwrap_or((spec, ""));
+                let (spec_model, shadows) = spec.split_once(':').unwrap_or((spec, "lookup"));
+                let (model, d) = spec_model.split_once('@').unwrap_or((spec_model, ""));
                 let mut dual = file.clone();
                 dual.render.integrator = IntegratorKind::Dual;
                 dual.render.spp = dual_spp;
                 dual.render.seed = 1;
                 dual.dual.model = <DualModel as clap::ValueEnum>::from_str(model, true).unwrap();
+                dual.dual.shadows = <ShadowMode as clap::ValueEnum>::from_str(shadows, true).unwrap();
                 if let Some((f, b)) = d.split_once('/') {
                     (dual.dual.d_f, dual.dual.d_b) = (f.parse().unwrap(), b.parse().unwrap());
                 }
@@ -146,7 +149,7 @@ fn main() {
                 let blocks = block_relative_rmse(&film, &reference, 4)
                     .map_or("no full block".into(), |(e, n)| format!("{:.1}% ({:.1}%)", 100.0 * e, 100.0 * n));
                 println!(
-                    "| {hair} | {light} | dual {model} | {}, {} | {} | {:.3} | {blocks} |",
+                    "| {hair} | {light} | dual {model} ({shadows}) | {}, {} | {} | {:.3} | {blocks} |",
                     dual.dual.d_f,
                     dual.dual.d_b,
                     shares(&film),

@@ -11,10 +11,14 @@ use indicatif::ProgressBar;
 use precompute::density::{DensityGrid, read_vdb, write_vdb};
 use precompute::fiber::{Chiang, FiberParams};
 use precompute::strands::Strands;
+use crate::camera::Camera;
+use crate::fibers::Fibers;
+use crate::light::Lights;
+use crate::transmittance::{ForwardLookup, LookupSettings};
 use precompute::tables::{TableSettings, Tables, compute};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Bumped whenever the cached formats or the computations change meaning.
 const VERSION: u64 = 1;
@@ -85,16 +89,7 @@ impl Cache {
     /// The density grid of some strands at a voxel size (automatic when `None`).
     pub fn density(&self, strands: &Strands, voxel_size: Option<f64>) -> Result<DensityGrid> {
         let size = voxel_size.unwrap_or_else(|| DensityGrid::auto_voxel_size(strands));
-        let mut h = Fnv::new().bytes(&size.to_le_bytes());
-        for p in &strands.points {
-            h = h.bytes(&p.to_array().map(f32::to_le_bytes).concat());
-        }
-        for r in &strands.radii {
-            h = h.bytes(&r.to_le_bytes());
-        }
-        for o in &strands.offsets {
-            h = h.bytes(&o.to_le_bytes());
-        }
+        let h = hash_strands(Fnv::new().bytes(&size.to_le_bytes()), strands);
         let path = self.entry(format!("density-{:016x}.vdb", h.0))?;
         if let Ok(grid) = read_vdb(&path, "density")
             && grid.voxel_size == size
@@ -109,6 +104,71 @@ impl Cache {
         })?;
         Ok(grid)
     }
+
+    /// The forward-transmittance lookup of some hair toward a scene's lights; `progress` shows a
+    /// bar while it is built. Keyed by the strands, the density grid's contents, the sun's
+    /// direction and disc, whether there is an environment (its directions are fixed, so its
+    /// image does not matter) and the lookup's resolutions.
+    pub fn lookup(
+        &self,
+        strands: &Strands,
+        fibers: &Fibers,
+        camera: &Camera,
+        grid: &DensityGrid,
+        lights: &Lights,
+        settings: &LookupSettings,
+        progress: bool,
+    ) -> Result<ForwardLookup> {
+        let mut h = hash_strands(Fnv::new(), strands).bytes(format!("{camera:?}").as_bytes());
+        h = h.bytes(&grid.voxel_size.to_le_bytes()).bytes(&grid.fiber_width.to_le_bytes());
+        let mut bricks: Vec<_> = grid.bricks().collect();
+        bricks.sort_unstable_by_key(|(k, _)| *k);
+        for (k, values) in bricks {
+            h = h.bytes(&k.map(i32::to_le_bytes).concat()).bytes(&values.map(f32::to_le_bytes).concat());
+        }
+        if let Some(sun) = &lights.sun {
+            h = h.bytes(&[1]).bytes(&sun.direction.to_array().map(f64::to_le_bytes).concat());
+            h = h.bytes(&sun.half_angle.to_le_bytes());
+        }
+        h = h.bytes(&[lights.environment.is_some() as u8]);
+        h = h.bytes(&[settings.sun_rays, settings.env_theta, settings.env_phi].map(u32::to_le_bytes).concat());
+        let path = self.entry(format!("lookup-{:016x}.bin", h.0))?;
+        let segments = strands.segment_count();
+        if let Some(lookup) = std::fs::read(&path).ok().and_then(|b| ForwardLookup::read(&b, segments)) {
+            return Ok(lookup);
+        }
+        let start = Instant::now();
+        let lookup = ForwardLookup::build(strands, fibers, camera, grid, lights, settings, progress);
+        if progress {
+            let (seen, all) = lookup.coverage();
+            eprintln!(
+                "built the forward-transmittance lookup for the {seen} of {all} segments in view in {:.1} s ({:.1} MB, cached in {})",
+                start.elapsed().as_secs_f64(),
+                lookup.bytes() as f64 / 1e6,
+                path.display()
+            );
+        }
+        write_atomically(&path, |tmp| {
+            let mut w = std::io::BufWriter::new(std::fs::File::create(tmp)?);
+            lookup.write(&mut w)?;
+            Ok(w.flush()?)
+        })?;
+        Ok(lookup)
+    }
+}
+
+/// Feeds the strands' exact geometry to a hash.
+fn hash_strands(mut h: Fnv, strands: &Strands) -> Fnv {
+    for p in &strands.points {
+        h = h.bytes(&p.to_array().map(f32::to_le_bytes).concat());
+    }
+    for r in &strands.radii {
+        h = h.bytes(&r.to_le_bytes());
+    }
+    for o in &strands.offsets {
+        h = h.bytes(&o.to_le_bytes());
+    }
+    h
 }
 
 /// A cached table, if the file is readable and was made from these inputs.

@@ -37,6 +37,11 @@ impl Camera {
         Camera::new(center - DVec3::Y * distance, center, DVec3::Z, fov_deg, width, height)
     }
 
+    /// Where the camera is (its pinhole).
+    pub fn position(&self) -> DVec3 {
+        self.position
+    }
+
     /// Ray through the continuous pixel position (x right, y down): origin and unit direction.
     pub fn ray(&self, x: f64, y: f64) -> (Vec3, DVec3) {
         let sx = 2.0 * x / self.width as f64 - 1.0;

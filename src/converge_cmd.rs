@@ -151,7 +151,7 @@ fn fingerprint(file: &SceneFile) -> String {
     f.render.spp = 1;
     f.render.seed = 0;
     f.render.integrator = IntegratorKind::Dual;
-    f.render.sampling = Sampling::Importance;
+    f.render.sampling = Some(Sampling::Importance);
     format!("{:016x}", Fnv::new().bytes(format!("{f:?}").as_bytes()).0)
 }
 
@@ -182,7 +182,7 @@ fn run_job(job: &Job, prepared: &mut Prepared, aovs: bool) -> Result<(f64, bool)
     }
     let r = &mut prepared.scene.render;
     r.integrator = job.method.integrator;
-    r.sampling = job.method.sampling;
+    r.sampling = Some(job.method.sampling);
     r.spp = job.spp;
     r.seed = job.seed;
     let dual = if job.method.integrator == IntegratorKind::Dual {

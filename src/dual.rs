@@ -50,6 +50,7 @@ use crate::integrator::{
 };
 use crate::light::{LightSample, Lights};
 use crate::scene::Sampling;
+use crate::transmittance::ForwardLookup;
 use glam::{DVec3, Vec3};
 use precompute::conventions::{SPHERE, h_offset, phi, pick, sin_cos_theta, uniform_sphere, wrap_angle};
 use precompute::density::DensityGrid;
@@ -224,6 +225,18 @@ pub struct DualScattering<'a> {
     pub d_b: f64,
     pub model: DualModel,
     pub sampling: Sampling,
+    pub shadows: Shadows<'a>,
+}
+
+/// How `dual` finds the fibers between a shading point and a light (`dual.shadows`).
+#[derive(Clone, Copy)]
+pub enum Shadows<'a> {
+    /// A shadow ray through the real strands decides lit or not, and in shadow the density grid
+    /// is marched for n: crisp hair-on-hair shadows.
+    Rays,
+    /// The precomputed lookup gives n, lit with probability e^-n: soft shadows filtered at voxel
+    /// scale, no ray or march per sample.
+    Lookup(&'a ForwardLookup),
 }
 
 /// F toward one light direction, split into its terms (see [`Term`]).
@@ -240,6 +253,14 @@ struct Split {
 impl Split {
     fn total(&self) -> Rgb {
         self.single + self.forward + self.back
+    }
+
+    fn scaled(&self, k: f64) -> Split {
+        Split { single: self.single * k, forward: self.forward * k, back: self.back * k }
+    }
+
+    fn plus(&self, o: &Split) -> Split {
+        Split { single: self.single + o.single, forward: self.forward + o.forward, back: self.back + o.back }
     }
 
     fn add_to(&self, terms: &mut Terms, weight: Rgb) {
@@ -260,6 +281,8 @@ struct Shading<'a> {
     h: f64,
     /// Origin of shadow rays and grid marches.
     from: Vec3,
+    /// The fiber segment hit, for the lookup.
+    segment: u32,
     /// Share of the uniform sphere in the `importance` sampler.
     uniform: f64,
 }
@@ -271,40 +294,68 @@ impl<'a> Shading<'a> {
         let h = h_offset(wo, frame.to_local(hit.normal.as_dvec3()));
         let uniform = DEFENSIVE * dual.d_f.max(dual.d_b);
         let (theta_o, phi_o) = (sin_cos_theta(wo).0.asin(), phi(wo));
-        Shading { dual, frame, wo, theta_o, phi_o, h, from: spawn_point(hit), uniform }
+        Shading { dual, frame, wo, theta_o, phi_o, h, from: spawn_point(hit), segment: hit.segment, uniform }
     }
 
     /// F(wo, wi) toward the light direction `wi` (local) = `d` (world), split into its terms.
     fn f(&self, wi: DVec3, d: DVec3) -> Split {
-        let dual = self.dual;
-        let model = dual.model;
         let (sin_i, cos_i) = sin_cos_theta(wi);
         let dphi = wrap_angle(phi(wi) - self.phi_o).abs();
-        // Fully lit when no fiber is in the way: a shadow ray through the real strands, or for
-        // `fibers` the real count of fibers crossed (Zinke's ray shooting) being 0.
-        let count = (model.transmittance_kind() == Transmittance::Fibers)
+        // The segment's lit fraction toward the light (Zinke et al. 2008's directFraction) weighs
+        // F_direct against F_scatter of its mean count n. Without an entry, rays.
+        let entry = match self.dual.shadows {
+            Shadows::Lookup(lookup) => lookup.toward(self.segment, d, wi),
+            Shadows::Rays => None,
+        };
+        let Some((lit, n)) = entry else { return self.f_rays(wi, d, sin_i, cos_i, dphi) };
+        let mut split = self.direct(wi, sin_i, cos_i, dphi).scaled(lit);
+        if lit < 1.0 {
+            split = split.plus(&self.scatter(wi, sin_i, cos_i, dphi, n).scaled(1.0 - lit));
+        }
+        split
+    }
+
+    /// F with a shadow ray: fully lit when no fiber is in the way (a shadow ray through the real
+    /// strands, or for `fibers` the real count of fibers crossed, Zinke's ray shooting, being 0),
+    /// else in shadow with the count the density grid's march gives.
+    fn f_rays(&self, wi: DVec3, d: DVec3, sin_i: f64, cos_i: f64, dphi: f64) -> Split {
+        let dual = self.dual;
+        let count = (dual.model.transmittance_kind() == Transmittance::Fibers)
             .then(|| dual.fibers.crossings(self.from, d.as_vec3()) as f64);
         let lit = match count {
             Some(n) => n == 0.0,
             None => !dual.fibers.occluded(self.from, d.as_vec3(), f32::INFINITY),
         };
         if lit {
-            // Fully lit (directFraction = 1, T_f = 1): F_direct = f_s + d_b f_back.
-            let mut split = Split { single: dual.fiber.eval(self.wo, wi, self.h), ..Split::default() };
-            if dual.d_b > 0.0 && dphi < FRAC_PI_2 {
-                let row = dual.tables.at(sin_i.asin());
-                split.back = self.backscatter(&row, sin_i, cos_i, Rgb::ZERO) * (dual.d_b * FRAC_1_PI);
-            }
-            return split;
+            self.direct(wi, sin_i, cos_i, dphi)
+        } else {
+            let march = || dual.grid.fibers_crossed(self.from.as_dvec3(), d, f64::INFINITY);
+            self.scatter(wi, sin_i, cos_i, dphi, count.unwrap_or_else(march))
         }
+    }
+
+    /// F_direct = f_s + d_b f_back: F where the light arrives unobstructed (directFraction = 1,
+    /// T_f = 1).
+    fn direct(&self, wi: DVec3, sin_i: f64, cos_i: f64, dphi: f64) -> Split {
+        let dual = self.dual;
+        let mut split = Split { single: dual.fiber.eval(self.wo, wi, self.h), ..Split::default() };
+        if dual.d_b > 0.0 && dphi < FRAC_PI_2 {
+            let row = dual.tables.at(sin_i.asin());
+            split.back = self.backscatter(&row, sin_i, cos_i, Rgb::ZERO) * (dual.d_b * FRAC_1_PI);
+        }
+        split
+    }
+
+    /// F_scatter = d_f^k T_f (f_s^G + pi d_b f_back^G): F where `n` fibers (a mean count) are in
+    /// the way (directFraction = 0), with T_f and sigma_f^2 = n' beta_f^2 as the model says
+    /// (thesis eqs. 3.18 and 3.20 for `zinke2008`: T_f = a_f^n, n' = n, k = 2).
+    fn scatter(&self, wi: DVec3, sin_i: f64, cos_i: f64, dphi: f64, n: f64) -> Split {
+        let dual = self.dual;
         if dual.d_f == 0.0 {
             return Split::default();
         }
-        // In shadow (directFraction = 0): F_scatter = d_f^k T_f (f_s^G + pi d_b f_back^G) with
-        // T_f and sigma_f^2 = n' beta_f^2 as the model says (thesis eqs. 3.18 and 3.20 for
-        // `zinke2008`: T_f = a_f^n, n' = n, k = 2).
+        let model = dual.model;
         let row = dual.tables.at(sin_i.asin());
-        let n = count.unwrap_or_else(|| dual.grid.fibers_crossed(self.from.as_dvec3(), d, f64::INFINITY));
         let a_f = row[Quantity::AF as usize];
         let t_f = Rgb(std::array::from_fn(|c| model.transmittance(a_f.0[c], row[Quantity::AB as usize].0[c], n)));
         let mean_n = model.mean_count(n);
@@ -398,10 +449,13 @@ impl Integrator for DualScattering<'_> {
         if let Some((wi, pdf)) = shading.sample(u) {
             if pdf > 0.0 {
                 let d = shading.frame.to_world(wi).normalize();
-                let split = shading.f(wi, d);
                 let weight = seen_lights(self.lights, d, pdf) / pdf;
-                radiance += split.total() * weight;
-                split.add_to(&mut terms, weight);
+                // No light seen that way (a sun-only scene, mostly): F would be multiplied by 0.
+                if weight.0.iter().any(|&w| w != 0.0) {
+                    let split = shading.f(wi, d);
+                    radiance += split.total() * weight;
+                    split.add_to(&mut terms, weight);
+                }
             }
         }
         CameraSample { radiance, hit_hair: true, terms }

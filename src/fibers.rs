@@ -121,6 +121,19 @@ impl Fibers {
         Fibers { bvh, capsules, ids, scale }
     }
 
+    /// The unit tangent a hit on each segment reports, indexed by segment.
+    pub fn tangents(&self) -> Vec<Vec3> {
+        let mut t = vec![Vec3::ZERO; self.capsules.len()];
+        for (c, &id) in self.capsules.iter().zip(&self.ids) {
+            t[id as usize] = Self::tangent(c);
+        }
+        t
+    }
+
+    fn tangent(c: &Capsule) -> Vec3 {
+        (c.b - c.a).normalize().as_vec3()
+    }
+
     /// Minimum hit distance in fiber units (1e-6 radii): only rejects hits at the ray origin.
     const T_MIN: f64 = 1e-6;
 
@@ -153,7 +166,7 @@ impl Fibers {
         Some(Hit {
             t: (best / self.scale) as f32,
             point: (p / self.scale).as_vec3(),
-            tangent: u.as_vec3(),
+            tangent: Self::tangent(c),
             normal: normal.as_vec3(),
             radius: (c.r / self.scale) as f32,
             segment: self.ids[hit.primitive_id as usize],

@@ -23,3 +23,4 @@ pub mod render;
 pub mod render_cmd;
 pub mod scene;
 pub mod tables_chart;
+pub mod transmittance;

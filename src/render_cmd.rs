@@ -1,12 +1,13 @@
 //! `dualhair render`: renders a scene file to EXR and PNG.
 
 use crate::cache::Cache;
-use crate::dual::{AUTO_SINGLE_BELOW, DualModel, DualScattering, predicted_multiple_share};
+use crate::dual::{AUTO_SINGLE_BELOW, DualModel, DualScattering, Shadows, predicted_multiple_share};
 use crate::film::Film;
 use crate::integrator::PathTracer;
 use crate::output::ImageFormat;
 use crate::render::render;
-use crate::scene::{IntegratorKind, Sampling, Scene, SceneFile};
+use crate::scene::{IntegratorKind, Sampling, Scene, SceneFile, ShadowMode};
+use crate::transmittance::ForwardLookup;
 use anyhow::{Context, Result, bail};
 use precompute::density::{DensityGrid, read_vdb};
 use precompute::fiber::{Chiang, FiberModel, UniformSampled};
@@ -29,7 +30,8 @@ pub struct RenderArgs {
     /// Integrator (default: the scene's, else dual).
     #[arg(long, value_enum)]
     pub integrator: Option<IntegratorKind>,
-    /// Direction sampling, combined with light sampling by MIS (default: importance).
+    /// Direction sampling, combined with light sampling by MIS (default: light for dual, importance
+    /// for the others).
     #[arg(long, value_enum)]
     pub sampling: Option<Sampling>,
     /// Random seed; the same seed gives the same image.
@@ -47,6 +49,9 @@ pub struct RenderArgs {
     /// Dual-scattering model (dual integrator; default: the scene's, else two_stream).
     #[arg(long, value_enum)]
     pub model: Option<DualModel>,
+    /// Shadows in the dual integrator (default: the scene's, else lookup).
+    #[arg(long, value_enum)]
+    pub shadows: Option<ShadowMode>,
     /// Image width in pixels.
     #[arg(long)]
     pub width: Option<usize>,
@@ -87,22 +92,24 @@ pub fn scene_file(args: &RenderArgs) -> Result<SceneFile> {
     let r = &mut file.render;
     r.spp = args.spp.unwrap_or(r.spp);
     r.integrator = args.integrator.unwrap_or(r.integrator);
-    r.sampling = args.sampling.unwrap_or(r.sampling);
+    r.sampling = args.sampling.or(r.sampling);
     r.seed = args.seed.unwrap_or(r.seed);
     r.max_depth = args.max_depth.unwrap_or(r.max_depth);
     file.dual.d_f = args.d_f.unwrap_or(file.dual.d_f);
     file.dual.d_b = args.d_b.unwrap_or(file.dual.d_b);
     file.dual.model = args.model.unwrap_or(file.dual.model);
+    file.dual.shadows = args.shadows.unwrap_or(file.dual.shadows);
     file.camera.width = args.width.unwrap_or(file.camera.width);
     file.camera.height = args.height.unwrap_or(file.camera.height);
     Ok(file)
 }
 
-/// What the dual integrator precomputes for a scene: the fiber's tables and the hair's density
-/// grid.
+/// What the dual integrator precomputes for a scene: the fiber's tables, the hair's density grid
+/// and, for `dual.shadows` "lookup", the forward-transmittance lookup.
 pub struct DualInputs {
     pub tables: Tables,
     pub grid: DensityGrid,
+    pub lookup: Option<ForwardLookup>,
 }
 
 impl DualInputs {
@@ -118,7 +125,11 @@ impl DualInputs {
             Some(path) => read_vdb(path, "density")?,
             None => cache.density(&scene.strands, d.voxel_size)?,
         };
-        Ok(Some(DualInputs { tables, grid }))
+        let lookup = match d.shadows {
+            ShadowMode::Lookup => Some(cache.lookup(&scene.strands, &scene.fibers, &scene.camera, &grid, &scene.lights, &d.lookup, progress)?),
+            ShadowMode::Rays => None,
+        };
+        Ok(Some(DualInputs { tables, grid, lookup }))
     }
 }
 
@@ -164,7 +175,11 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
             d_f: d.d_f,
             d_b: d.d_b,
             model: d.model,
-            sampling: scene.render.sampling,
+            sampling: scene.render.sampling(),
+            shadows: match &inputs.lookup {
+                Some(lookup) => Shadows::Lookup(lookup),
+                None => Shadows::Rays,
+            },
         };
         return Ok(render(&scene.camera, &dual, spp, seed, progress, scene.render.terms));
     }
@@ -175,7 +190,7 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
         IntegratorKind::Auto => bail!("`auto` must be resolved to an integrator first (resolve_auto)"),
     };
     let uniform = UniformSampled(chiang.clone());
-    let fiber: &dyn FiberModel = match scene.render.sampling {
+    let fiber: &dyn FiberModel = match scene.render.sampling() {
         Sampling::Importance => &chiang,
         Sampling::Uniform => &uniform,
         Sampling::Light => bail!("light sampling alone needs the dual integrator"),

@@ -24,7 +24,7 @@ fn without_multiple_scattering_dual_is_single() {
     ] {
         let mut single = bundled("brown", 40, 4);
         single.lights.sun = Some(serde_json::from_str(r#"{"direction": [-0.5, -1, 0.6], "irradiance": 1.5}"#).unwrap());
-        single.render.sampling = sampling;
+        single.render.sampling = Some(sampling);
         single.render.integrator = IntegratorKind::Single;
         let mut dual = single.clone();
         dual.render.integrator = IntegratorKind::Dual;
@@ -76,7 +76,7 @@ fn sampling_strategies_converge_to_the_same_image() {
         let reference = render(&base);
         for sampling in [Sampling::Uniform, Sampling::Light] {
             let mut other = base.clone();
-            other.render.sampling = sampling;
+            other.render.sampling = Some(sampling);
             let (diff, se) = paired_difference(&reference, &render(&other));
             println!("{name}: {sampling:?} vs importance: {:+.3}% +- {:.3}%", 100.0 * diff, 100.0 * se);
             assert!(se < 1.5e-3, "{name} {sampling:?}: standard error {se} too large to judge 0.5%");

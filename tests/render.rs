@@ -126,7 +126,7 @@ fn importance_and_uniform_sampling_agree() {
         imp.fiber.beta_m = beta;
         imp.fiber.beta_n = beta;
         let mut uni = imp.clone();
-        uni.render.sampling = Sampling::Uniform;
+        uni.render.sampling = Some(Sampling::Uniform);
         uni.render.seed = 1;
         let (a, b) = (hair_mean(&render(&imp)), hair_mean(&render(&uni)));
         println!("{integrator:?} beta {beta}: importance {:.5} +- {:.5}, uniform {:.5} +- {:.5}", a.0, a.1, b.0, b.1);

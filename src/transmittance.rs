@@ -1,0 +1,460 @@
+//! The global forward-transmittance lookup: for every fiber segment and light direction, the
+//! fraction of the segment that sees the light directly (Zinke et al. 2008's directFraction) and
+//! the number of fibers n in the way (the density grid's count, design section 4), precomputed
+//! once per hair and light setup so that a `dual` sample traces no shadow ray and marches no grid.
+//! Zinke et al. 2008 (section 5) keep the same two quantities in forward-scattering maps; here
+//! they are kept per segment, because a voxel-scale directFraction (e^-n of a voxel lattice's n)
+//! was measured to darken the directly lit fibers by half: the fibers a camera sees are the
+//! outermost of their voxel (README, "The forward-transmittance lookup").
+//!
+//! Each entry is measured from points on the segment's axis, with the shadow rays and grid
+//! marches of `dual.shadows` "rays":
+//!
+//! - the sun: `sun_rays` rays per segment, spread along it and over the sun's disc; the lit
+//!   fraction and the mean n;
+//! - the environment: one ray per vertex of a map of directions in the segment's own fiber frame
+//!   (design section 3: x along the tangent), `env_theta` x `env_phi` squares of inclination
+//!   theta and azimuth phi; the lit bit per vertex, n at every other vertex in each coordinate.
+//!   The map lives in the fiber frame because that is where visibility has its structure: a
+//!   fiber's neighbours lie along it, so directions across the fiber (theta near 0, where f_s
+//!   cos theta_i also peaks) are blocked far more often than directions along it; a world-space
+//!   map of 16 x 16 squares still measured twice the f_s-weighted visibility of the shadow rays.
+//!   Interpolated bilinearly in (theta, phi) at render time.
+//!
+//! Units: n is dimensionless; directions are unit world vectors.
+
+use crate::camera::Camera;
+use crate::fibers::Fibers;
+use crate::light::Lights;
+use anyhow::ensure;
+use glam::DVec3;
+use indicatif::{ProgressBar, ProgressStyle};
+use precompute::density::DensityGrid;
+use crate::integrator::Frame;
+use precompute::conventions::{direction, phi, sin_cos_theta};
+use precompute::strands::{Segment, Strands};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use rayon::prelude::*;
+use serde::Deserialize;
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::io::Write;
+
+/// Resolutions of the lookup (scene file `dual.lookup`), chosen by measured error against the
+/// exact rays and marches (README, "The forward-transmittance lookup").
+#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
+#[serde(default, deny_unknown_fields)]
+pub struct LookupSettings {
+    /// Shadow rays per segment toward the sun.
+    pub sun_rays: u32,
+    /// Squares of the environment's map along the inclination theta (fiber frame).
+    pub env_theta: u32,
+    /// Squares of the environment's map around the azimuth phi (fiber frame).
+    pub env_phi: u32,
+}
+
+impl Default for LookupSettings {
+    fn default() -> Self {
+        LookupSettings { sun_rays: 16, env_theta: 16, env_phi: 16 }
+    }
+}
+
+impl LookupSettings {
+    pub fn validate(&self) -> anyhow::Result<()> {
+        ensure!((1..=4096).contains(&self.sun_rays), "dual.lookup.sun_rays must be in 1..=4096, got {}", self.sun_rays);
+        for (name, v) in [("env_theta", self.env_theta), ("env_phi", self.env_phi)] {
+            ensure!((2..=64).contains(&v), "dual.lookup.{name} must be in 2..=64, got {v}");
+        }
+        Ok(())
+    }
+}
+
+/// A map of directions in a fiber frame: vertices at theta_j = -pi/2 + pi j / rows (j in 0..=rows)
+/// and phi_i = 2 pi i / columns (i in 0..columns, periodic), stored row by row.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct AngleMap {
+    rows: u32,
+    columns: u32,
+}
+
+impl AngleMap {
+    fn len(&self) -> usize {
+        (self.rows as usize + 1) * self.columns as usize
+    }
+
+    /// Vertex k's direction (fiber frame).
+    fn direction(&self, k: usize) -> DVec3 {
+        let (j, i) = (k / self.columns as usize, k % self.columns as usize);
+        direction(-FRAC_PI_2 + PI * j as f64 / self.rows as f64, TAU * i as f64 / self.columns as f64)
+    }
+
+    /// The four vertices around (theta, phi) with their bilinear weights.
+    fn weights(&self, theta: f64, phi: f64) -> [(usize, f64); 4] {
+        let rows = self.rows as f64;
+        let y = ((theta + FRAC_PI_2) / PI * rows).clamp(0.0, rows);
+        let j = (y.floor() as usize).min(self.rows as usize - 1);
+        let fy = y - j as f64;
+        let x = phi.rem_euclid(TAU) / TAU * self.columns as f64;
+        let i = (x.floor() as usize).min(self.columns as usize - 1);
+        let fx = (x - i as f64).clamp(0.0, 1.0);
+        let c = self.columns as usize;
+        let i1 = (i + 1) % c;
+        [
+            (j * c + i, (1.0 - fx) * (1.0 - fy)),
+            (j * c + i1, fx * (1.0 - fy)),
+            ((j + 1) * c + i, (1.0 - fx) * fy),
+            ((j + 1) * c + i1, fx * fy),
+        ]
+    }
+}
+
+/// n on a log scale in a byte: q = round(32 log2(1 + n)), steps of 2.2% in 1 + n, up to n = 250
+/// (beyond it no light passes: a_f^250 < 1e-11 for every a_f < 0.9, and the spread is saturated).
+fn quantize(n: f64) -> u8 {
+    (32.0 * (1.0 + n.max(0.0)).log2()).round().min(255.0) as u8
+}
+
+fn dequantize(q: f64) -> f64 {
+    (q / 32.0).exp2() - 1.0
+}
+
+/// Entries toward the sun, per segment.
+#[derive(Debug, PartialEq)]
+struct SunLookup {
+    direction: DVec3,
+    /// Directions with a larger cosine to `direction` are the sun's (its disc).
+    cos_disc: f64,
+    /// Lit fraction and mean n per segment.
+    lit: Vec<f32>,
+    count: Vec<f32>,
+}
+
+/// Entries toward the environment, per segment: lit bits on one map, counts on a coarser one.
+#[derive(Debug, PartialEq)]
+struct EnvLookup {
+    lit_map: AngleMap,
+    count_map: AngleMap,
+    /// `words` 64-bit words of lit bits per segment, vertex k in bit k % 64 of word k / 64.
+    words: usize,
+    lit: Vec<u64>,
+    /// `count_map.len()` quantized counts per segment.
+    counts: Vec<u8>,
+}
+
+impl EnvLookup {
+    fn new(settings: &LookupSettings) -> EnvLookup {
+        let lit_map = AngleMap { rows: settings.env_theta, columns: settings.env_phi };
+        let count_map = AngleMap { rows: settings.env_theta.div_ceil(2), columns: settings.env_phi.div_ceil(2) };
+        EnvLookup { lit_map, count_map, words: lit_map.len().div_ceil(64), lit: Vec::new(), counts: Vec::new() }
+    }
+}
+
+/// Lit fraction and fibers crossed from each segment toward a scene's lights (module
+/// documentation).
+#[derive(Debug, PartialEq)]
+pub struct ForwardLookup {
+    /// Total segments of the hair.
+    segments: usize,
+    /// The segments with entries (those camera rays hit), ascending.
+    seen: Vec<u32>,
+    /// Each segment's row of entries, `u32::MAX` for none.
+    rows: Vec<u32>,
+    sun: Option<SunLookup>,
+    env: Option<EnvLookup>,
+}
+
+/// The segments camera rays hit: 16 per pixel, at the centers of a 4 x 4 grid over it. A sample's
+/// camera ray lands elsewhere in the pixel and now and then hits a segment none of these did;
+/// `dual` traces shadow rays for those.
+fn seen_segments(fibers: &Fibers, camera: &Camera, segments: usize) -> Vec<u32> {
+    let hit: Vec<u32> = (0..camera.height)
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            (0..camera.width).flat_map(move |x| {
+                (0..16).filter_map(move |k| {
+                    let (dx, dy) = ((k % 4) as f64 * 0.25 + 0.125, (k / 4) as f64 * 0.25 + 0.125);
+                    let (o, d) = camera.ray(x as f64 + dx, y as f64 + dy);
+                    fibers.closest_hit(o, d.as_vec3(), f32::INFINITY).map(|h| h.segment)
+                })
+            })
+        })
+        .collect();
+    let mut seen = vec![false; segments];
+    hit.into_iter().for_each(|i| seen[i as usize] = true);
+    (0..segments as u32).filter(|&i| seen[i as usize]).collect()
+}
+
+/// A point where a camera ray from `viewer` can hit segment `s`, with the offset `spawn_point`
+/// gives it: at parameter t along the axis, on the half of the fiber that faces the viewer, at
+/// offset h in [-1, 1] across it (camera rays hit uniformly in h), 0.99 radii from the axis.
+fn seen_point(s: &Segment, tangent: DVec3, viewer: DVec3, t: f64, h: f64) -> DVec3 {
+    let axis = s.a.as_dvec3().lerp(s.b.as_dvec3(), t);
+    let v = viewer - axis;
+    let toward = (v - v.dot(tangent) * tangent).normalize_or_zero();
+    let across = tangent.cross(toward);
+    axis + (0.99 * s.radius as f64) * ((1.0 - h * h).max(0.0).sqrt() * toward + h * across)
+}
+
+impl ForwardLookup {
+    /// Precomputes the lookup for the lights of a scene; `progress` shows a bar. Deterministic:
+    /// each segment draws from its own random stream.
+    pub fn build(
+        strands: &Strands,
+        fibers: &Fibers,
+        camera: &Camera,
+        grid: &DensityGrid,
+        lights: &Lights,
+        settings: &LookupSettings,
+        progress: bool,
+    ) -> ForwardLookup {
+        let all: Vec<_> = strands.segments().collect();
+        let seen = seen_segments(fibers, camera, all.len());
+        let segments: Vec<_> = seen.iter().map(|&i| all[i as usize]).collect();
+        let tangents = fibers.tangents();
+        let viewer = camera.position();
+        let env = lights.environment.as_ref().map(|_| EnvLookup::new(settings));
+        let bar = if progress { ProgressBar::new(segments.len() as u64) } else { ProgressBar::hidden() };
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{spinner} forward-transmittance lookup [{bar:40}] {pos}/{len} segments, ETA {eta}",
+            )
+            .expect("static progress template")
+            .progress_chars("=> "),
+        );
+        let escapes = |p: DVec3, d: DVec3| !fibers.occluded(p.as_vec3(), d.as_vec3(), f32::INFINITY);
+        let march = |p: DVec3, d: DVec3| grid.fibers_crossed(p, d, f64::INFINITY);
+        // Per segment: the sun's (lit, n), the environment's lit words and counts.
+        type Row = ((f32, f32), Vec<u64>, Vec<u8>);
+        let rows: Vec<Row> = segments
+            .par_iter()
+            .enumerate()
+            .map(|(row, s)| {
+                let i = seen[row] as usize;
+                let mut rng = Pcg64Mcg::seed_from_u64(0x5eed_0000 ^ i as u64);
+                let tangent = tangents[i].as_dvec3();
+                let point = |k: usize, m: usize, rng: &mut Pcg64Mcg| {
+                    // Stratified along the segment, spread over the samples by a stride coprime to
+                    // their count.
+                    let t = (((k * 7919) % m) as f64 + rng.random::<f64>()) / m as f64;
+                    seen_point(s, tangent, viewer, t, 2.0 * rng.random::<f64>() - 1.0)
+                };
+                let sun = lights.sun.as_ref().map_or((0.0, 0.0), |sun| {
+                    let k = settings.sun_rays;
+                    let (t1, t2) = sun.direction.any_orthonormal_pair();
+                    let (mut lit, mut count) = (0.0, 0.0);
+                    for r in 0..k {
+                        // Uniform over the disc's cone.
+                        let p = point(r as usize, k as usize, &mut rng);
+                        let cos_t = 1.0 - rng.random::<f64>() * (1.0 - sun.half_angle.cos());
+                        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+                        let (sp, cp) = (TAU * rng.random::<f64>()).sin_cos();
+                        let d = (t1 * (cp * sin_t) + t2 * (sp * sin_t) + sun.direction * cos_t).normalize();
+                        lit += escapes(p, d) as u8 as f64;
+                        count += march(p, d);
+                    }
+                    ((lit / k as f64) as f32, (count / k as f64) as f32)
+                });
+                let (mut words, mut counts) = (Vec::new(), Vec::new());
+                if let Some(env) = &env {
+                    let frame = Frame::new(tangents[i]);
+                    let m = env.lit_map.len();
+                    words = vec![0u64; env.words];
+                    for k in 0..m {
+                        if escapes(point(k, m, &mut rng), frame.to_world(env.lit_map.direction(k))) {
+                            words[k / 64] |= 1 << (k % 64);
+                        }
+                    }
+                    let m = env.count_map.len();
+                    counts = (0..m)
+                        .map(|k| quantize(march(point(k, m, &mut rng), frame.to_world(env.count_map.direction(k)))))
+                        .collect();
+                }
+                bar.inc(1);
+                (sun, words, counts)
+            })
+            .collect();
+        bar.finish_and_clear();
+        let sun = lights.sun.as_ref().map(|sun| SunLookup {
+            direction: sun.direction,
+            cos_disc: sun.half_angle.cos().min(1.0 - 1e-12),
+            lit: rows.iter().map(|r| r.0.0).collect(),
+            count: rows.iter().map(|r| r.0.1).collect(),
+        });
+        let env = env.map(|e| EnvLookup {
+            lit: rows.iter().flat_map(|r| r.1.iter().copied()).collect(),
+            counts: rows.iter().flat_map(|r| r.2.iter().copied()).collect(),
+            ..e
+        });
+        ForwardLookup::new(all.len(), seen, sun, env)
+    }
+
+    fn new(segments: usize, seen: Vec<u32>, sun: Option<SunLookup>, env: Option<EnvLookup>) -> ForwardLookup {
+        let mut rows = vec![u32::MAX; segments];
+        for (row, &i) in seen.iter().enumerate() {
+            rows[i as usize] = row as u32;
+        }
+        ForwardLookup { segments, seen, rows, sun, env }
+    }
+
+    /// (lit fraction, fibers crossed) from segment `segment` toward the unit direction `d`
+    /// (world), which is `wi` in the hit's fiber frame: the sun's entry for directions in its
+    /// disc, the environment's for any other; `None` where there is no entry (a segment no
+    /// camera ray hit while the lookup was built, or a direction no light shines from).
+    pub fn toward(&self, segment: u32, d: DVec3, wi: DVec3) -> Option<(f64, f64)> {
+        let i = *self.rows.get(segment as usize)?;
+        if i == u32::MAX {
+            return None;
+        }
+        let i = i as usize;
+        if let Some(sun) = &self.sun
+            && d.dot(sun.direction) >= sun.cos_disc
+        {
+            return Some((sun.lit[i] as f64, sun.count[i] as f64));
+        }
+        let env = self.env.as_ref()?;
+        let (theta, phi) = (sin_cos_theta(wi).0.asin(), phi(wi));
+        let words = &env.lit[i * env.words..(i + 1) * env.words];
+        let lit = env.lit_map.weights(theta, phi).iter().map(|&(k, w)| w * ((words[k / 64] >> (k % 64)) & 1) as f64).sum();
+        let counts = &env.counts[i * env.count_map.len()..(i + 1) * env.count_map.len()];
+        // Interpolated on the stored log scale: a convex T(n) of a linear blend of counts would
+        // darken the light that passes between a thin and a thick direction.
+        let q = env.count_map.weights(theta, phi).iter().map(|&(k, w)| w * counts[k] as f64).sum::<f64>();
+        let n = dequantize(q);
+        Some((lit, n))
+    }
+
+    /// Memory it takes, in bytes.
+    pub fn bytes(&self) -> usize {
+        4 * (self.rows.len() + self.seen.len())
+            + self.sun.as_ref().map_or(0, |s| 4 * (s.lit.len() + s.count.len()))
+            + self.env.as_ref().map_or(0, |e| 8 * e.lit.len() + e.counts.len())
+    }
+
+    /// Segments with entries, and all segments.
+    pub fn coverage(&self) -> (usize, usize) {
+        (self.seen.len(), self.segments)
+    }
+
+    /// Writes the lookup in its cache format, every number little-endian: "DHFWDLUT", the segment
+    /// count (u64), the count of segments with entries (u64) and their indices (u32, ascending);
+    /// then per segment with entries, in that order: a byte 1 and the sun's direction and disc cosine (4 x f64) then its lit
+    /// fractions and counts (f32 per segment each), or a byte 0; a byte 1, the lit map's theta and
+    /// phi squares (2 x u32), then the lit words (u64) and quantized counts (u8) of every
+    /// segment, or a byte 0.
+    pub fn write(&self, w: &mut impl Write) -> std::io::Result<()> {
+        w.write_all(MAGIC)?;
+        w.write_all(&(self.segments as u64).to_le_bytes())?;
+        w.write_all(&(self.seen.len() as u64).to_le_bytes())?;
+        w.write_all(&self.seen.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>())?;
+        match &self.sun {
+            Some(s) => {
+                w.write_all(&[1])?;
+                for v in [s.direction.x, s.direction.y, s.direction.z, s.cos_disc] {
+                    w.write_all(&v.to_le_bytes())?;
+                }
+                let floats = s.lit.iter().chain(&s.count);
+                w.write_all(&floats.flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>())?;
+            }
+            None => w.write_all(&[0])?,
+        }
+        match &self.env {
+            Some(e) => {
+                w.write_all(&[1])?;
+                w.write_all(&e.lit_map.rows.to_le_bytes())?;
+                w.write_all(&e.lit_map.columns.to_le_bytes())?;
+                w.write_all(&e.lit.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>())?;
+                w.write_all(&e.counts)?;
+            }
+            None => w.write_all(&[0])?,
+        }
+        Ok(())
+    }
+
+    /// Reads what [`ForwardLookup::write`] wrote for `segments` segments; `None` if the bytes are
+    /// not such a lookup (sizes are checked against the bytes before anything is allocated).
+    pub fn read(bytes: &[u8], segments: usize) -> Option<ForwardLookup> {
+        let mut r = bytes.strip_prefix(MAGIC)?;
+        if u64::from_le_bytes(take(&mut r)?) != segments as u64 {
+            return None;
+        }
+        let count = usize::try_from(u64::from_le_bytes(take(&mut r)?)).ok()?;
+        let seen = chunks(&mut r, count, u32::from_le_bytes)?;
+        if seen.windows(2).any(|w| w[0] >= w[1]) || seen.last().is_some_and(|&i| i as usize >= segments) {
+            return None;
+        }
+        let segments_total = segments;
+        let segments = seen.len();
+        let sun = match take::<1>(&mut r)?[0] {
+            0 => None,
+            1 => {
+                let mut f = || Some(f64::from_le_bytes(take(&mut r)?));
+                let (x, y, z, cos_disc) = (f()?, f()?, f()?, f()?);
+                let lit = chunks(&mut r, segments, f32::from_le_bytes)?;
+                let count = chunks(&mut r, segments, f32::from_le_bytes)?;
+                Some(SunLookup { direction: DVec3::new(x, y, z), cos_disc, lit, count })
+            }
+            _ => return None,
+        };
+        let env = match take::<1>(&mut r)?[0] {
+            0 => None,
+            1 => {
+                let env_theta = u32::from_le_bytes(take(&mut r)?);
+                let env_phi = u32::from_le_bytes(take(&mut r)?);
+                let settings = LookupSettings { env_theta, env_phi, ..LookupSettings::default() };
+                settings.validate().ok()?;
+                let env = EnvLookup::new(&settings);
+                let lit = chunks(&mut r, segments.checked_mul(env.words)?, u64::from_le_bytes)?;
+                let counts = chunks(&mut r, segments.checked_mul(env.count_map.len())?, u8::from_le_bytes)?;
+                Some(EnvLookup { lit, counts, ..env })
+            }
+            _ => return None,
+        };
+        r.is_empty().then(|| ForwardLookup::new(segments_total, seen, sun, env))
+    }
+}
+
+const MAGIC: &[u8] = b"DHFWDLUT";
+
+fn take<const N: usize>(r: &mut &[u8]) -> Option<[u8; N]> {
+    let (head, rest) = r.split_first_chunk::<N>()?;
+    *r = rest;
+    Some(*head)
+}
+
+/// `count` numbers of N bytes each, if there are that many bytes.
+fn chunks<T, const N: usize>(r: &mut &[u8], count: usize, from: fn([u8; N]) -> T) -> Option<Vec<T>> {
+    let len = count.checked_mul(N)?;
+    let bytes = r.get(..len)?;
+    *r = &r[len..];
+    Some(bytes.chunks_exact(N).map(|b| from(b.try_into().expect("N bytes"))).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn angle_map_interpolates_its_vertices_and_weights_sum_to_one() {
+        let map = AngleMap { rows: 6, columns: 8 };
+        for k in 0..map.len() {
+            let d = map.direction(k);
+            let w = map.weights(sin_cos_theta(d).0.asin(), phi(d));
+            assert!((w.iter().map(|x| x.1).sum::<f64>() - 1.0).abs() < 1e-12);
+            // The vertex itself, or one of the same direction (a pole), gets all the weight.
+            let at: DVec3 = w.iter().map(|&(v, wv)| map.direction(v) * wv).sum();
+            assert!((at - d).length() < 1e-9, "vertex {k}: {d} vs {at}");
+        }
+        // Across phi = 2 pi the last column blends into the first.
+        let w = map.weights(0.1, TAU - 0.01);
+        assert!(w.iter().any(|&(k, x)| k % 8 == 0 && x > 0.9));
+    }
+
+    #[test]
+    fn quantized_counts_keep_n_within_their_step() {
+        for n in [0.0, 1e-3, 0.5, 1.0, 7.3, 120.0, 249.0] {
+            let m = dequantize(quantize(n) as f64);
+            assert!((m - n).abs() <= 0.012 * (1.0 + n), "{n} -> {m}");
+        }
+        assert_eq!(quantize(1e9), 255);
+    }
+}

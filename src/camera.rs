@@ -42,6 +42,11 @@ impl Camera {
         self.position
     }
 
+    /// Width of a pixel at `distance` from the camera, in scene units.
+    pub fn pixel_width(&self, distance: f64) -> f64 {
+        2.0 * self.up.length() * distance / self.height as f64
+    }
+
     /// Ray through the continuous pixel position (x right, y down): origin and unit direction.
     pub fn ray(&self, x: f64, y: f64) -> (Vec3, DVec3) {
         let sx = 2.0 * x / self.width as f64 - 1.0;

@@ -270,6 +270,16 @@ impl Split {
     }
 }
 
+/// A light direction (local) with what every part of F needs of it: its inclination's sine and
+/// cosine, |phi_i - phi_o| and the tables' row at its inclination.
+struct Incoming {
+    wi: DVec3,
+    sin_i: f64,
+    cos_i: f64,
+    dphi: f64,
+    row: [Rgb; 9],
+}
+
 /// F at one fiber hit, with its sampler.
 struct Shading<'a> {
     dual: &'a DualScattering<'a>,
@@ -299,26 +309,38 @@ impl<'a> Shading<'a> {
 
     /// F(wo, wi) toward the light direction `wi` (local) = `d` (world), split into its terms.
     fn f(&self, wi: DVec3, d: DVec3) -> Split {
+        let dual = self.dual;
         let (sin_i, cos_i) = sin_cos_theta(wi);
         let dphi = wrap_angle(phi(wi) - self.phi_o).abs();
+        let inc = Incoming { wi, sin_i, cos_i, dphi, row: dual.tables.at(sin_i.asin()) };
         // The segment's lit fraction toward the light (Zinke et al. 2008's directFraction) weighs
         // F_direct against F_scatter of its mean count n. Without an entry, rays.
-        let entry = match self.dual.shadows {
+        let entry = match dual.shadows {
             Shadows::Lookup(lookup) => lookup.toward(self.segment, d, wi),
             Shadows::Rays => None,
         };
-        let Some((lit, n)) = entry else { return self.f_rays(wi, d, sin_i, cos_i, dphi) };
-        let mut split = self.direct(wi, sin_i, cos_i, dphi).scaled(lit);
-        if lit < 1.0 {
-            split = split.plus(&self.scatter(wi, sin_i, cos_i, dphi, n).scaled(1.0 - lit));
+        let Some((lit, n)) = entry else { return self.f_rays(&inc, d) };
+        if lit >= 1.0 {
+            return self.direct(&inc, dual.fiber.eval(self.wo, wi, self.h));
         }
-        split
+        // Partly lit: f_s and f_s^G share the fiber's per-hit state.
+        let mut f_s = None;
+        let scatter = self.scatter(&inc, n, |spread| {
+            let (direct, spread) = dual.fiber.eval_both(self.wo, wi, self.h, spread);
+            f_s = Some(direct);
+            spread
+        });
+        if lit <= 0.0 {
+            return scatter;
+        }
+        let f_s = f_s.unwrap_or_else(|| dual.fiber.eval(self.wo, wi, self.h));
+        self.direct(&inc, f_s).scaled(lit).plus(&scatter.scaled(1.0 - lit))
     }
 
     /// F with a shadow ray: fully lit when no fiber is in the way (a shadow ray through the real
     /// strands, or for `fibers` the real count of fibers crossed, Zinke's ray shooting, being 0),
     /// else in shadow with the count the density grid's march gives.
-    fn f_rays(&self, wi: DVec3, d: DVec3, sin_i: f64, cos_i: f64, dphi: f64) -> Split {
+    fn f_rays(&self, inc: &Incoming, d: DVec3) -> Split {
         let dual = self.dual;
         let count = (dual.model.transmittance_kind() == Transmittance::Fibers)
             .then(|| dual.fibers.crossings(self.from, d.as_vec3()) as f64);
@@ -327,52 +349,51 @@ impl<'a> Shading<'a> {
             None => !dual.fibers.occluded(self.from, d.as_vec3(), f32::INFINITY),
         };
         if lit {
-            self.direct(wi, sin_i, cos_i, dphi)
+            self.direct(inc, dual.fiber.eval(self.wo, inc.wi, self.h))
         } else {
-            let march = || dual.grid.fibers_crossed(self.from.as_dvec3(), d, f64::INFINITY);
-            self.scatter(wi, sin_i, cos_i, dphi, count.unwrap_or_else(march))
+            let n = count.unwrap_or_else(|| dual.grid.fibers_crossed(self.from.as_dvec3(), d, f64::INFINITY));
+            self.scatter(inc, n, |spread| dual.fiber.eval_spread(self.wo, inc.wi, self.h, spread))
         }
     }
 
     /// F_direct = f_s + d_b f_back: F where the light arrives unobstructed (directFraction = 1,
-    /// T_f = 1).
-    fn direct(&self, wi: DVec3, sin_i: f64, cos_i: f64, dphi: f64) -> Split {
+    /// T_f = 1), given f_s.
+    fn direct(&self, inc: &Incoming, f_s: Rgb) -> Split {
         let dual = self.dual;
-        let mut split = Split { single: dual.fiber.eval(self.wo, wi, self.h), ..Split::default() };
-        if dual.d_b > 0.0 && dphi < FRAC_PI_2 {
-            let row = dual.tables.at(sin_i.asin());
-            split.back = self.backscatter(&row, sin_i, cos_i, Rgb::ZERO) * (dual.d_b * FRAC_1_PI);
+        let mut split = Split { single: f_s, ..Split::default() };
+        if dual.d_b > 0.0 && inc.dphi < FRAC_PI_2 {
+            split.back = self.backscatter(inc, Rgb::ZERO) * (dual.d_b * FRAC_1_PI);
         }
         split
     }
 
     /// F_scatter = d_f^k T_f (f_s^G + pi d_b f_back^G): F where `n` fibers (a mean count) are in
     /// the way (directFraction = 0), with T_f and sigma_f^2 = n' beta_f^2 as the model says
-    /// (thesis eqs. 3.18 and 3.20 for `zinke2008`: T_f = a_f^n, n' = n, k = 2).
-    fn scatter(&self, wi: DVec3, sin_i: f64, cos_i: f64, dphi: f64, n: f64) -> Split {
+    /// (thesis eqs. 3.18 and 3.20 for `zinke2008`: T_f = a_f^n, n' = n, k = 2). `f_spread` gives
+    /// f_s^G for a spread (not called when d_f = 0).
+    fn scatter(&self, inc: &Incoming, n: f64, f_spread: impl FnOnce(Rgb) -> Rgb) -> Split {
         let dual = self.dual;
         if dual.d_f == 0.0 {
             return Split::default();
         }
-        let model = dual.model;
-        let row = dual.tables.at(sin_i.asin());
+        let (model, row) = (dual.model, &inc.row);
         let a_f = row[Quantity::AF as usize];
         let t_f = Rgb(std::array::from_fn(|c| model.transmittance(a_f.0[c], row[Quantity::AB as usize].0[c], n)));
         let mean_n = model.mean_count(n);
         let var_f = Rgb(row[Quantity::BetaF as usize].0.map(|b| mean_n * b * b));
         let scale = t_f * if model.d_f_twice() { dual.d_f * dual.d_f } else { dual.d_f };
-        let mut split =
-            Split { forward: scale * dual.fiber.eval_spread(self.wo, wi, self.h, var_f * 4.0), ..Split::default() };
+        let mut split = Split { forward: scale * f_spread(var_f * 4.0), ..Split::default() };
         if dual.d_b > 0.0 {
-            let azimuth = (PI - dphi) * FRAC_1_PI * FRAC_1_PI;
-            split.back = scale * self.backscatter(&row, sin_i, cos_i, var_f) * (PI * dual.d_b * azimuth);
+            let azimuth = (PI - inc.dphi) * FRAC_1_PI * FRAC_1_PI;
+            split.back = scale * self.backscatter(inc, var_f) * (PI * dual.d_b * azimuth);
         }
         split
     }
 
     /// A_b(theta) M(theta_i; 2 Delta_b - theta_o, 4 (sigma_b^2 + extra)) per channel: f_back
     /// without its azimuthal factor. `extra` is a theta_h variance, like sigma_b^2.
-    fn backscatter(&self, row: &[Rgb; 9], sin_i: f64, cos_i: f64, extra: Rgb) -> Rgb {
+    fn backscatter(&self, inc: &Incoming, extra: Rgb) -> Rgb {
+        let (row, sin_i, cos_i) = (&inc.row, inc.sin_i, inc.cos_i);
         Rgb(std::array::from_fn(|c| {
             let q = |q: Quantity| row[q as usize].0[c];
             let a = self.dual.model.backscatter_albedo(q(Quantity::AF), q(Quantity::AB), q(Quantity::ABack));

@@ -163,25 +163,26 @@ pub struct ForwardLookup {
     env: Option<EnvLookup>,
 }
 
-/// The segments camera rays hit: 16 per pixel, at the centers of a 4 x 4 grid over it. A sample's
-/// camera ray lands elsewhere in the pixel and now and then hits a segment none of these did;
-/// `dual` traces shadow rays for those.
-fn seen_segments(fibers: &Fibers, camera: &Camera, segments: usize) -> Vec<u32> {
-    let hit: Vec<u32> = (0..camera.height)
+/// The segments camera rays hit: k x k rays per pixel on a regular grid, spaced half a fiber
+/// width apart at the hair's center (k in 4..=32), so that few segments in view are missed. A
+/// sample's camera ray that hits one of those few anyway gets shadow rays from `dual`.
+fn seen_segments(strands: &Strands, fibers: &Fibers, camera: &Camera) -> Vec<u32> {
+    let (lo, hi) = strands.bounds();
+    let distance = (0.5 * (lo + hi)).as_dvec3().distance(camera.position());
+    let width = 2.0 * strands.radii.iter().map(|&r| r as f64).sum::<f64>() / strands.radii.len().max(1) as f64;
+    let k = (2.0 * camera.pixel_width(distance) / width).ceil().clamp(4.0, 32.0) as usize;
+    let hit: Vec<u32> = (0..camera.height * k)
         .into_par_iter()
         .flat_map_iter(|y| {
-            (0..camera.width).flat_map(move |x| {
-                (0..16).filter_map(move |k| {
-                    let (dx, dy) = ((k % 4) as f64 * 0.25 + 0.125, (k / 4) as f64 * 0.25 + 0.125);
-                    let (o, d) = camera.ray(x as f64 + dx, y as f64 + dy);
-                    fibers.closest_hit(o, d.as_vec3(), f32::INFINITY).map(|h| h.segment)
-                })
+            (0..camera.width * k).filter_map(move |x| {
+                let (o, d) = camera.ray((x as f64 + 0.5) / k as f64, (y as f64 + 0.5) / k as f64);
+                fibers.closest_hit(o, d.as_vec3(), f32::INFINITY).map(|h| h.segment)
             })
         })
         .collect();
-    let mut seen = vec![false; segments];
+    let mut seen = vec![false; strands.segment_count()];
     hit.into_iter().for_each(|i| seen[i as usize] = true);
-    (0..segments as u32).filter(|&i| seen[i as usize]).collect()
+    (0..seen.len() as u32).filter(|&i| seen[i as usize]).collect()
 }
 
 /// A point where a camera ray from `viewer` can hit segment `s`, with the offset `spawn_point`
@@ -208,7 +209,7 @@ impl ForwardLookup {
         progress: bool,
     ) -> ForwardLookup {
         let all: Vec<_> = strands.segments().collect();
-        let seen = seen_segments(fibers, camera, all.len());
+        let seen = seen_segments(strands, fibers, camera);
         let segments: Vec<_> = seen.iter().map(|&i| all[i as usize]).collect();
         let tangents = fibers.tangents();
         let viewer = camera.position();
@@ -446,7 +447,36 @@ mod tests {
         }
         // Across phi = 2 pi the last column blends into the first.
         let w = map.weights(0.1, TAU - 0.01);
-        assert!(w.iter().any(|&(k, x)| k % 8 == 0 && x > 0.9));
+        let first: f64 = w.iter().filter(|(k, _)| k % 8 == 0).map(|(_, x)| x).sum();
+        assert!(first > 0.98, "{w:?}");
+    }
+
+    #[test]
+    fn cache_format_round_trips_and_rejects_damaged_bytes() {
+        let settings = LookupSettings { env_theta: 2, env_phi: 3, ..LookupSettings::default() };
+        let env = EnvLookup::new(&settings);
+        let env = EnvLookup {
+            lit: (0..2 * env.words as u64).map(|k| k * 0x9e37_79b9_7f4a_7c15).collect(),
+            counts: (0..2 * env.count_map.len()).map(|k| k as u8).collect(),
+            ..env
+        };
+        let sun = SunLookup { direction: DVec3::Z, cos_disc: 0.99, lit: vec![0.25, 1.0], count: vec![3.0, 0.0] };
+        let lookup = ForwardLookup::new(5, vec![1, 4], Some(sun), Some(env));
+        let mut bytes = Vec::new();
+        lookup.write(&mut bytes).unwrap();
+        assert_eq!(ForwardLookup::read(&bytes, 5), Some(lookup));
+        // Every truncation, another hair's segment count, and indices out of order or range.
+        for len in 0..bytes.len() {
+            assert_eq!(ForwardLookup::read(&bytes[..len], 5), None, "truncated to {len}");
+        }
+        assert_eq!(ForwardLookup::read(&bytes, 6), None);
+        let mut swapped = bytes.clone();
+        swapped[24..28].copy_from_slice(&9u32.to_le_bytes());
+        assert_eq!(ForwardLookup::read(&swapped, 5), None);
+        // A header claiming more entries than there are bytes allocates nothing.
+        let mut huge = bytes.clone();
+        huge[16..24].copy_from_slice(&u64::MAX.to_le_bytes());
+        assert_eq!(ForwardLookup::read(&huge, 5), None);
     }
 
     #[test]

@@ -6,7 +6,9 @@ use dualhair::cache::Cache;
 use dualhair::compare::hair_pixels;
 use dualhair::dual::DualModel;
 use dualhair::film::Film;
-use dualhair::scene::{DualSpec, IntegratorKind, Sampling};
+use dualhair::scene::{DualSpec, IntegratorKind, Sampling, ShadowMode};
+use dualhair::transmittance::LookupSettings;
+use precompute::density::DensityGrid;
 use precompute::fiber::FiberParams;
 
 mod common;
@@ -28,7 +30,8 @@ fn without_multiple_scattering_dual_is_single() {
         single.render.integrator = IntegratorKind::Single;
         let mut dual = single.clone();
         dual.render.integrator = IntegratorKind::Dual;
-        dual.dual = DualSpec { d_f: 0.0, d_b: 0.0, model, ..DualSpec::default() };
+        // Shadow rays: the lookup's shadows are soft, single scattering's are not.
+        dual.dual = DualSpec { d_f: 0.0, d_b: 0.0, model, shadows: ShadowMode::Rays, ..DualSpec::default() };
         let (a, b) = (render(&single), render(&dual));
         assert!(a.alpha == b.alpha);
         let worst = a
@@ -41,7 +44,7 @@ fn without_multiple_scattering_dual_is_single() {
         assert!(worst < 1e-12, "{sampling:?}: dual with d_f = d_b = 0 differs from single by {worst}");
         // With the default factors every model adds light.
         for model in [DualModel::Zinke2008, DualModel::TwoStream, DualModel::Fibers] {
-            dual.dual = DualSpec { model, ..DualSpec::default() };
+            dual.dual = DualSpec { model, shadows: ShadowMode::Rays, ..DualSpec::default() };
             let c = render(&dual);
             let sum = |f: &Film| hair_pixels(f).iter().map(|&i| f.mean[i].luminance()).sum::<f64>();
             assert!(sum(&c) > 1.02 * sum(&a), "dual {model:?} adds no multiple scattering");
@@ -147,4 +150,31 @@ fn precomputed_inputs_are_cached_and_reused() {
     let finer = cache.density(&strands, Some(0.5 * grid.voxel_size)).unwrap();
     assert_eq!(files().len(), n + 1);
     assert!(((finer.total_length() - grid.total_length()) / grid.total_length()).abs() < 1e-3);
+
+    // The forward-transmittance lookup: reused for the same hair, camera, lights and grid; rebuilt
+    // when any of them changes; a damaged entry is rebuilt, not trusted.
+    let mut file = bundled("brown", 16, 1);
+    file.lights.sun = Some(serde_json::from_str(r#"{"direction": [0.3, -1, 0.5], "irradiance": 2}"#).unwrap());
+    let scene = file.build().unwrap();
+    let settings = LookupSettings { env_theta: 4, env_phi: 4, ..LookupSettings::default() };
+    let lookup = |scene: &dualhair::scene::Scene, grid: &DensityGrid| {
+        cache.lookup(&scene.strands, &scene.fibers, &scene.camera, grid, &scene.lights, &settings, false).unwrap()
+    };
+    let first = lookup(&scene, &grid);
+    let n = files().len();
+    assert_eq!(lookup(&scene, &grid), first);
+    assert_eq!(files().len(), n, "unchanged inputs must reuse the cached lookup");
+    let entry = files().into_iter().find(|f| f.0.to_string_lossy().starts_with("lookup-")).unwrap();
+    let bytes = std::fs::read(dir.path().join(&entry.0)).unwrap();
+    std::fs::write(dir.path().join(&entry.0), &bytes[..bytes.len() / 2]).unwrap();
+    assert_eq!(lookup(&scene, &grid), first, "a truncated entry must be rebuilt");
+    lookup(&scene, &finer);
+    assert_eq!(files().len(), n + 1, "another voxel size must rebuild the lookup");
+    file.lights.sun = Some(serde_json::from_str(r#"{"direction": [0.3, 1, 0.5], "irradiance": 2}"#).unwrap());
+    let moved = lookup(&file.build().unwrap(), &grid);
+    assert_eq!(files().len(), n + 2, "another sun must rebuild the lookup");
+    assert_ne!(moved, first);
+    file.camera.width = 20;
+    lookup(&file.build().unwrap(), &grid);
+    assert_eq!(files().len(), n + 3, "another camera must rebuild the lookup");
 }

@@ -172,6 +172,9 @@ fn bad_scenes_name_the_problem() {
         (r#"{"hair": {"generate": {"kind": "ball"}}, "lights": {"environment": {"file": "nope.exr"}}}"#, "nope.exr"),
         (r#"{"hair": {"generate": {"kind": "ball"}}, "render": {"spp": NaN}}"#, "scene.json"),
         (r#"{"hair": {"generate": {"kind": "ball", "strands": 0}}}"#, "strands"),
+        (r#"{"hair": {"generate": {"kind": "ball"}}, "dual": {"model": "fibers"}}"#, "needs dual.shadows"),
+        (r#"{"hair": {"generate": {"kind": "ball"}}, "dual": {"lookup": {"env_theta": 1}}}"#, "dual.lookup.env_theta"),
+        (r#"{"hair": {"generate": {"kind": "ball"}}, "dual": {"shadows": "maps"}}"#, "unknown variant `maps`"),
     ];
     let dir = tempfile::tempdir().unwrap();
     for (json, expect) in cases {

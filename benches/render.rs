@@ -1,12 +1,15 @@
-//! Renderer benchmark: BVH build time and ray rates on a groom, and path-tracing rate on the
-//! backlit swatch scene. `cargo bench --bench render -- [HAIR_FILE]`; without a file it uses a
-//! generated scalp of 30,000 strands. All threads of the machine are used.
+//! Renderer benchmark: BVH build time and ray rates on a groom, then camera samples/s of `path`,
+//! `dual` with shadow rays and `dual` with the forward-transmittance lookup (and the lookup's
+//! build time and memory) on the bundled swatches and, given one, the groom.
+//! `cargo bench --bench render -- [HAIR_FILE]`; without a file it uses a generated scalp of 30,000
+//! strands for the ray rates. All threads of the machine are used.
 
 use dualhair::cache::Cache;
 use dualhair::camera::Camera;
 use dualhair::fibers::Fibers;
 use dualhair::render_cmd::{DualInputs, render_prepared};
-use dualhair::scene::{IntegratorKind, SceneFile};
+use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, OneOrRgb, SceneFile, ShadowMode, SunSpec};
+use dualhair::transmittance::ForwardLookup;
 use glam::Vec3;
 use precompute::strands::{Generator, Scalp, read_hair};
 use rand::{Rng, SeedableRng};
@@ -82,17 +85,65 @@ fn main() {
 
     let root = env!("CARGO_MANIFEST_DIR");
     let cache = Cache::at(format!("{}/dualhair-cache", env!("CARGO_TARGET_TMPDIR")));
-    let mut swatch = SceneFile::load(Path::new(&format!("{root}/scenes/backlit_swatch.json"))).unwrap();
-    swatch.render.spp = 16;
-    for integrator in [IntegratorKind::Path, IntegratorKind::Dual] {
-        swatch.render.integrator = integrator;
-        let scene = swatch.build().unwrap();
-        // Tables and grid first, so that only rendering is timed.
-        let inputs = DualInputs::load(&scene, &cache, false).unwrap();
-        let paths = scene.camera.width * scene.camera.height * 16;
-        rate(&format!("{integrator:?}, backlit swatch (camera samples)"), paths, || {
-            let film = render_prepared(&scene, inputs.as_ref(), false).unwrap();
-            film.alpha.iter().filter(|&&a| a > 0.0).count() * 16
-        });
+    // Camera samples/s of path, dual with shadow rays and dual with the lookup, in one run: the
+    // swatches, and the groom when one is given (brown fiber, courtyard HDRI plus a sun).
+    let mut scenes: Vec<(String, SceneFile)> = ["backlit_swatch", "blond", "brown", "black"]
+        .iter()
+        .map(|n| (n.to_string(), SceneFile::load(Path::new(&format!("{root}/scenes/{n}.json"))).unwrap()))
+        .collect();
+    if let Some(f) = &file {
+        let mut groom = SceneFile::load(Path::new(&format!("{root}/scenes/brown.json"))).unwrap();
+        groom.hair = HairSpec { file: Some(f.into()), generate: None, ..groom.hair };
+        groom.hair.rotate = [0.0; 3];
+        groom.lights.environment =
+            Some(EnvSpec { file: Some(format!("{root}/scenes/hdri/courtyard.exr").into()), ..EnvSpec::default() });
+        groom.lights.sun =
+            Some(SunSpec { direction: [0.3, -1.0, 0.5], irradiance: OneOrRgb::One(3.0), angular_diameter: 0.53 });
+        (groom.camera.width, groom.camera.height) = (256, 256);
+        scenes.push(("groom".into(), groom));
+    }
+    let spp = 16;
+    println!(
+        "| scene | path | dual (rays) | dual (lookup) | lookup / path | lookup / rays | lookup build | lookup memory |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for (name, mut file) in scenes {
+        file.render.spp = spp;
+        let mut rates = Vec::new();
+        let mut build = (0.0, 0);
+        for (integrator, shadows) in [
+            (IntegratorKind::Path, ShadowMode::Rays),
+            (IntegratorKind::Dual, ShadowMode::Rays),
+            (IntegratorKind::Dual, ShadowMode::Lookup),
+        ] {
+            file.render.integrator = integrator;
+            file.dual.shadows = shadows;
+            let scene = file.build().unwrap();
+            // Tables, grid and lookup first, so that only rendering is timed.
+            let inputs = DualInputs::load(&scene, &cache, false).unwrap();
+            if let Some(DualInputs { grid, .. }) = &inputs
+                && shadows == ShadowMode::Lookup
+            {
+                let start = Instant::now();
+                let s = &scene;
+                let lookup =
+                    ForwardLookup::build(&s.strands, &s.fibers, &s.camera, grid, &s.lights, &file.dual.lookup, false);
+                build = (start.elapsed().as_secs_f64(), lookup.bytes());
+            }
+            let samples = scene.camera.width * scene.camera.height * spp as usize;
+            let start = Instant::now();
+            render_prepared(&scene, inputs.as_ref(), false).unwrap();
+            rates.push(samples as f64 / start.elapsed().as_secs_f64() / 1e6);
+        }
+        println!(
+            "| {name} | {:.3} M/s | {:.3} M/s | {:.3} M/s | {:.1}x | {:.1}x | {:.1} s | {:.1} MB |",
+            rates[0],
+            rates[1],
+            rates[2],
+            rates[2] / rates[0],
+            rates[2] / rates[1],
+            build.0,
+            build.1 as f64 / 1e6
+        );
     }
 }

@@ -6,15 +6,13 @@
 //! cached table also records its inputs, which are compared on load.
 
 use crate::output::write_atomically;
+use crate::scene::Scene;
+use crate::transmittance::ForwardLookup;
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
 use precompute::density::{DensityGrid, read_vdb, write_vdb};
 use precompute::fiber::{Chiang, FiberParams};
 use precompute::strands::Strands;
-use crate::camera::Camera;
-use crate::fibers::Fibers;
-use crate::light::Lights;
-use crate::transmittance::{ForwardLookup, LookupSettings};
 use precompute::tables::{TableSettings, Tables, compute};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -105,20 +103,12 @@ impl Cache {
         Ok(grid)
     }
 
-    /// The forward-transmittance lookup of some hair toward a scene's lights; `progress` shows a
+    /// The forward-transmittance lookup of a scene's hair, seen by its camera, toward its lights; `progress` shows a
     /// bar while it is built. Keyed by the strands, the density grid's contents, the sun's
     /// direction and disc, whether there is an environment (its directions are fixed, so its
     /// image does not matter) and the lookup's resolutions.
-    pub fn lookup(
-        &self,
-        strands: &Strands,
-        fibers: &Fibers,
-        camera: &Camera,
-        grid: &DensityGrid,
-        lights: &Lights,
-        settings: &LookupSettings,
-        progress: bool,
-    ) -> Result<ForwardLookup> {
+    pub fn lookup(&self, scene: &Scene, grid: &DensityGrid, progress: bool) -> Result<ForwardLookup> {
+        let (strands, lights, settings, camera) = (&scene.strands, &scene.lights, &scene.dual.lookup, &scene.camera);
         let mut h = hash_strands(Fnv::new(), strands).bytes(format!("{camera:?}").as_bytes());
         h = h.bytes(&grid.voxel_size.to_le_bytes()).bytes(&grid.fiber_width.to_le_bytes());
         let mut bricks: Vec<_> = grid.bricks().collect();
@@ -138,7 +128,7 @@ impl Cache {
             return Ok(lookup);
         }
         let start = Instant::now();
-        let lookup = ForwardLookup::build(strands, fibers, camera, grid, lights, settings, progress);
+        let lookup = ForwardLookup::build(strands, &scene.fibers, camera, grid, lights, settings, progress);
         if progress {
             let (seen, all) = lookup.coverage();
             eprintln!(

@@ -32,7 +32,12 @@
 //! - f_back^G widens M by 4 sigma_f^2 and replaces s_b by its convolution with the half circle
 //!   the forward-scattered light arrives from: (pi - |phi|) / pi^2, which also integrates to 1.
 //!
-//! d_f = d_b = 0 leaves F = f_s when lit and 0 in shadow: single scattering, sample for sample.
+//! d_f = d_b = 0 leaves F = f_s when lit and 0 in shadow: single scattering, sample for sample
+//! (with shadow rays).
+//!
+//! `dual.shadows` "rays" decides lit or in shadow with that shadow ray and marches the grid for
+//! n; the default "lookup" ([`crate::transmittance`]) reads the segment's lit fraction L toward the
+//! light and n from a precomputed table instead, and F = L F_direct + (1 - L) F_scatter.
 //!
 //! The environment integral of F is estimated with one light sample per light and one sample of
 //! F's own sampler, combined by the power heuristic (Veach 1997). F's sampler is `uniform` over

@@ -126,7 +126,7 @@ impl DualInputs {
             None => cache.density(&scene.strands, d.voxel_size)?,
         };
         let lookup = match d.shadows {
-            ShadowMode::Lookup => Some(cache.lookup(&scene.strands, &scene.fibers, &scene.camera, &grid, &scene.lights, &d.lookup, progress)?),
+            ShadowMode::Lookup => Some(cache.lookup(scene, &grid, progress)?),
             ShadowMode::Rays => None,
         };
         Ok(Some(DualInputs { tables, grid, lookup }))

@@ -219,7 +219,11 @@ impl RenderSpec {
     /// light samples alone reach a given error in about 0.6 times the time of light samples MIS-
     /// combined with fiber samples: README, "Speed") and `importance` for the others.
     pub fn sampling(&self) -> Sampling {
-        self.sampling.unwrap_or(if self.integrator == IntegratorKind::Dual { Sampling::Light } else { Sampling::Importance })
+        self.sampling.unwrap_or(if self.integrator == IntegratorKind::Dual {
+            Sampling::Light
+        } else {
+            Sampling::Importance
+        })
     }
 }
 

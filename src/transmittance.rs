@@ -1,14 +1,16 @@
-//! The global forward-transmittance lookup: for every fiber segment and light direction, the
-//! fraction of the segment that sees the light directly (Zinke et al. 2008's directFraction) and
-//! the number of fibers n in the way (the density grid's count, design section 4), precomputed
-//! once per hair and light setup so that a `dual` sample traces no shadow ray and marches no grid.
-//! Zinke et al. 2008 (section 5) keep the same two quantities in forward-scattering maps; here
-//! they are kept per segment, because a voxel-scale directFraction (e^-n of a voxel lattice's n)
-//! was measured to darken the directly lit fibers by half: the fibers a camera sees are the
-//! outermost of their voxel (README, "The forward-transmittance lookup").
+//! The global forward-transmittance lookup: for every fiber segment in view and light direction,
+//! the fraction of the segment that sees the light directly (Zinke et al. 2008's directFraction)
+//! and the number of fibers n in the way (the density grid's count, design section 4),
+//! precomputed once per hair, camera and light setup so that a `dual` sample traces no shadow ray
+//! and marches no grid. Zinke et al. 2008 (section 5) keep the same two quantities in
+//! forward-scattering maps; here they are kept per segment, because a voxel-scale directFraction
+//! (e^-n of a voxel lattice's n) was measured to darken the directly lit fibers by half: the
+//! fibers a camera sees are the outermost of their voxel (README, "The forward-transmittance
+//! lookup").
 //!
-//! Each entry is measured from points on the segment's axis, with the shadow rays and grid
-//! marches of `dual.shadows` "rays":
+//! Each entry is measured with the shadow rays and grid marches of `dual.shadows` "rays", from
+//! points where camera rays hit the segment (the half facing the camera, spread along and across
+//! it, 0.99 radii from the axis as `dual`'s shading points are):
 //!
 //! - the sun: `sun_rays` rays per segment, spread along it and over the sun's disc; the lit
 //!   fraction and the mean n;
@@ -18,20 +20,20 @@
 //!   The map lives in the fiber frame because that is where visibility has its structure: a
 //!   fiber's neighbours lie along it, so directions across the fiber (theta near 0, where f_s
 //!   cos theta_i also peaks) are blocked far more often than directions along it; a world-space
-//!   map of 16 x 16 squares still measured twice the f_s-weighted visibility of the shadow rays.
+//!   octahedral map of 8 x 8 squares measured twice the f_s-weighted visibility of the shadow rays.
 //!   Interpolated bilinearly in (theta, phi) at render time.
 //!
 //! Units: n is dimensionless; directions are unit world vectors.
 
 use crate::camera::Camera;
 use crate::fibers::Fibers;
+use crate::integrator::Frame;
 use crate::light::Lights;
 use anyhow::ensure;
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
-use precompute::density::DensityGrid;
-use crate::integrator::Frame;
 use precompute::conventions::{direction, phi, sin_cos_theta};
+use precompute::density::DensityGrid;
 use precompute::strands::{Segment, Strands};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -315,7 +317,8 @@ impl ForwardLookup {
         let env = self.env.as_ref()?;
         let (theta, phi) = (sin_cos_theta(wi).0.asin(), phi(wi));
         let words = &env.lit[i * env.words..(i + 1) * env.words];
-        let lit = env.lit_map.weights(theta, phi).iter().map(|&(k, w)| w * ((words[k / 64] >> (k % 64)) & 1) as f64).sum();
+        let lit =
+            env.lit_map.weights(theta, phi).iter().map(|&(k, w)| w * ((words[k / 64] >> (k % 64)) & 1) as f64).sum();
         let counts = &env.counts[i * env.count_map.len()..(i + 1) * env.count_map.len()];
         // Interpolated on the stored log scale: a convex T(n) of a linear blend of counts would
         // darken the light that passes between a thin and a thick direction.

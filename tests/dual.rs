@@ -155,11 +155,9 @@ fn precomputed_inputs_are_cached_and_reused() {
     // when any of them changes; a damaged entry is rebuilt, not trusted.
     let mut file = bundled("brown", 16, 1);
     file.lights.sun = Some(serde_json::from_str(r#"{"direction": [0.3, -1, 0.5], "irradiance": 2}"#).unwrap());
+    file.dual.lookup = LookupSettings { env_theta: 4, env_phi: 4, ..LookupSettings::default() };
     let scene = file.build().unwrap();
-    let settings = LookupSettings { env_theta: 4, env_phi: 4, ..LookupSettings::default() };
-    let lookup = |scene: &dualhair::scene::Scene, grid: &DensityGrid| {
-        cache.lookup(&scene.strands, &scene.fibers, &scene.camera, grid, &scene.lights, &settings, false).unwrap()
-    };
+    let lookup = |scene: &dualhair::scene::Scene, grid: &DensityGrid| cache.lookup(scene, grid, false).unwrap();
     let first = lookup(&scene, &grid);
     let n = files().len();
     assert_eq!(lookup(&scene, &grid), first);

@@ -1,7 +1,6 @@
 //! The forward-transmittance lookup against what it replaces: shadow rays from the shading points
 //! `dual` uses and the density grid's exact march from them, per resolution of the lookup.
 
-use dualhair::cache::Cache;
 use dualhair::transmittance::{ForwardLookup, LookupSettings};
 use glam::DVec3;
 use precompute::conventions::{h_offset, uniform_sphere};
@@ -11,7 +10,7 @@ use rand_pcg::Pcg64Mcg;
 
 mod common;
 
-use common::bundled;
+use common::{bundled, cache};
 
 /// Means over camera hits (pixel centers) of: the sun's lit fraction (lookup, shadow rays), the
 /// environment's visibility weighted by f_s cos theta_i (directions drawn from the fiber's
@@ -21,8 +20,9 @@ fn compare(settings: LookupSettings) -> [(f64, f64); 4] {
     let mut file = bundled("brown", 48, 1);
     file.lights.sun = Some(serde_json::from_str(r#"{"direction": [0.3, -1, 0.5], "irradiance": 2}"#).unwrap());
     let scene = file.build().unwrap();
-    let grid = Cache::at(format!("{}/dualhair-cache", env!("CARGO_TARGET_TMPDIR"))).density(&scene.strands, None).unwrap();
-    let lookup = ForwardLookup::build(&scene.strands, &scene.fibers, &scene.camera, &grid, &scene.lights, &settings, false);
+    let grid = cache().density(&scene.strands, None).unwrap();
+    let lookup =
+        ForwardLookup::build(&scene.strands, &scene.fibers, &scene.camera, &grid, &scene.lights, &settings, false);
     let chiang = Chiang::new(&scene.fiber).unwrap();
     let sun = scene.lights.sun.as_ref().unwrap().direction;
     let mut rng = Pcg64Mcg::seed_from_u64(3);
@@ -82,7 +82,9 @@ fn lookup_agrees_with_shadow_rays_and_the_grid_march() {
     for (theta, phi, bounds) in [(8, 8, [0.05, 0.25, 0.05, 0.2]), (16, 16, [0.05, 0.08, 0.06, 0.05])] {
         let settings = LookupSettings { env_theta: theta, env_phi: phi, ..LookupSettings::default() };
         let means = compare(settings);
-        for (k, name) in ["sun lit fraction", "f_s-weighted visibility", "visibility", "fibers crossed"].iter().enumerate() {
+        for (k, name) in
+            ["sun lit fraction", "f_s-weighted visibility", "visibility", "fibers crossed"].iter().enumerate()
+        {
             let (got, want) = means[k];
             let error = got / want - 1.0;
             println!("{theta}x{phi} {name}: lookup {got:.4}, exact {want:.4} ({:+.1}%)", 100.0 * error);

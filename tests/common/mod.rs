@@ -1,4 +1,6 @@
 //! Helpers shared by the integration tests that render the bundled scenes.
+// Each test binary uses some of them.
+#![allow(dead_code)]
 
 use dualhair::cache::Cache;
 use dualhair::film::Film;

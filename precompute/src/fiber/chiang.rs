@@ -152,12 +152,24 @@ impl FiberModel for Chiang {
 
 impl SpreadScattering for Chiang {
     fn eval_spread(&self, wo: DVec3, wi: DVec3, h: f64, spread: Rgb) -> Rgb {
+        self.spread_at(&self.incidence(wo, h), wi, spread)
+    }
+
+    fn eval_both(&self, wo: DVec3, wi: DVec3, h: f64, spread: Rgb) -> (Rgb, Rgb) {
         let inc = self.incidence(wo, h);
+        let d = self.lobe_densities(&inc, wi);
+        ((0..=P_MAX).map(|p| inc.ap[p] * d[p]).sum(), self.spread_at(&inc, wi, spread))
+    }
+}
+
+impl Chiang {
+    /// f_s^G for the incidence `inc` (see [`SpreadScattering::eval_spread`]).
+    fn spread_at(&self, inc: &Incidence, wi: DVec3, spread: Rgb) -> Rgb {
         let (sin_i, cos_i) = sin_cos_theta(wi);
-        let n = self.half_circle_averages(&inc, wi);
+        let n = self.half_circle_averages(inc, wi);
         let mut out = Rgb::ZERO;
         for (p, n) in n.into_iter().enumerate() {
-            let (sin_o, cos_o) = self.tilted(&inc, p);
+            let (sin_o, cos_o) = self.tilted(inc, p);
             for c in 0..3 {
                 let m = self.m[p].widened(spread.0[c]).eval(cos_i, sin_i, cos_o, sin_o);
                 out.0[c] += inc.ap[p].0[c] * m * n;

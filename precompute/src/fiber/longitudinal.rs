@@ -7,7 +7,7 @@
 //! the cone's azimuth, of a von Mises-Fisher distribution on the sphere with concentration 1/v
 //! centered on the mirror direction (inclination -theta_o), which is what makes exact sampling work.
 
-use crate::special::i0e;
+use crate::special::i0e_parts;
 
 /// Longitudinal variance `v` from the user roughness `beta_m` in [0, 1] (seed 002 section 1.3.1,
 /// pbrt-v3 = Cycles): v = (0.726 beta + 0.812 beta^2 + 3.7 beta^20)^2.
@@ -25,7 +25,7 @@ pub struct Longitudinal {
 
 impl Longitudinal {
     pub fn new(v: f64) -> Longitudinal {
-        Longitudinal { v, log_norm: v.ln() + (-(-2.0 / v).exp_m1()).ln() }
+        Longitudinal { v, log_norm: (v * -(-2.0 / v).exp_m1()).ln() }
     }
 
     /// The same lobe widened by an extra variance (variances add under convolution).
@@ -41,7 +41,8 @@ impl Longitudinal {
     /// for tiny v nor loses precision for large v.
     pub fn eval(&self, cos_i: f64, sin_i: f64, cos_o: f64, sin_o: f64) -> f64 {
         let exponent = ((cos_i * cos_o).abs() - sin_i * sin_o - 1.0) / self.v;
-        i0e(cos_i * cos_o / self.v) * (exponent - self.log_norm).exp()
+        let (m, e) = i0e_parts(cos_i * cos_o / self.v);
+        m * (exponent - self.log_norm + e).exp()
     }
 
     /// Samples `(sin theta_i, cos theta_i)` with density M_p(theta_o, .) cos(theta_i) from two

@@ -65,6 +65,11 @@ pub trait FiberModel: Send + Sync {
 /// and integrates over `wi` to the same albedo.
 pub trait SpreadScattering: FiberModel {
     fn eval_spread(&self, wo: DVec3, wi: DVec3, h: f64, spread: Rgb) -> Rgb;
+
+    /// `(eval, eval_spread)` at once: a model can share its per-hit state between them.
+    fn eval_both(&self, wo: DVec3, wi: DVec3, h: f64, spread: Rgb) -> (Rgb, Rgb) {
+        (self.eval(wo, wi, h), self.eval_spread(wo, wi, h, spread))
+    }
 }
 
 /// Any fiber model, sampled uniformly over the sphere: the baseline for comparisons.

@@ -2,6 +2,7 @@
 //! reference; `auto` picks single scattering for black hair and dual scattering for blond.
 
 use dualhair::calibrate_cmd::calibrate;
+use dualhair::dual::DualModel;
 use dualhair::render_cmd::resolve_auto;
 use dualhair::scene::{IntegratorKind, SceneFile};
 
@@ -26,7 +27,11 @@ fn calibrate_recovers_the_factors_of_a_synthetic_target() {
 
 #[test]
 fn calibrate_lowers_the_error_against_path_tracing() {
-    let file = bundled("blond", 24, 64);
+    // Zinke's literal model at the thesis's factors, which misses much of blond hair's light (the
+    // default is already within noise of `path` at this size): the fit must do better.
+    let mut file = bundled("blond", 24, 64);
+    file.dual.model = DualModel::Zinke2008;
+    (file.dual.d_f, file.dual.d_b) = (0.7, 0.7);
     let c = calibrate(&file, None, 512, &cache(), false).unwrap();
     println!("{c:?}");
     assert!(c.after.1 < c.before.1, "{c:?}");

@@ -239,8 +239,8 @@ pub enum Shadows<'a> {
     /// A shadow ray through the real strands decides lit or not, and in shadow the density grid
     /// is marched for n: crisp hair-on-hair shadows.
     Rays,
-    /// The precomputed lookup gives n, lit with probability e^-n: soft shadows filtered at voxel
-    /// scale, no ray or march per sample.
+    /// The precomputed lookup gives the hit segment's lit fraction toward the light and n: soft
+    /// shadows at segment scale, no ray or march per sample.
     Lookup(&'a ForwardLookup),
 }
 
@@ -328,6 +328,9 @@ impl<'a> Shading<'a> {
         if lit >= 1.0 {
             return self.direct(&inc, dual.fiber.eval(self.wo, wi, self.h));
         }
+        if lit <= 0.0 {
+            return self.scatter(&inc, n, |spread| dual.fiber.eval_spread(self.wo, wi, self.h, spread));
+        }
         // Partly lit: f_s and f_s^G share the fiber's per-hit state.
         let mut f_s = None;
         let scatter = self.scatter(&inc, n, |spread| {
@@ -335,9 +338,6 @@ impl<'a> Shading<'a> {
             f_s = Some(direct);
             spread
         });
-        if lit <= 0.0 {
-            return scatter;
-        }
         let f_s = f_s.unwrap_or_else(|| dual.fiber.eval(self.wo, wi, self.h));
         self.direct(&inc, f_s).scaled(lit).plus(&scatter.scaled(1.0 - lit))
     }

@@ -178,7 +178,7 @@ pub struct DualSpec {
 pub enum ShadowMode {
     /// Shadow rays through the real strands and grid marches: crisp hair-on-hair shadows.
     Rays,
-    /// The precomputed forward-transmittance lookup: soft voxel-scale shadows, much faster.
+    /// The precomputed forward-transmittance lookup: soft segment-scale shadows, faster.
     Lookup,
 }
 

@@ -122,6 +122,7 @@ impl Cache {
         }
         h = h.bytes(&[lights.environment.is_some() as u8]);
         h = h.bytes(&[settings.sun_rays, settings.env_theta, settings.env_phi].map(u32::to_le_bytes).concat());
+        h = h.bytes(&ForwardLookup::VERSION.to_le_bytes());
         let path = self.entry(format!("lookup-{:016x}.bin", h.0))?;
         let segments = strands.segment_count();
         if let Some(lookup) = std::fs::read(&path).ok().and_then(|b| ForwardLookup::read(&b, segments)) {

@@ -321,7 +321,7 @@ impl<'a> Shading<'a> {
         // The segment's lit fraction toward the light (Zinke et al. 2008's directFraction) weighs
         // F_direct against F_scatter of its mean count n. Without an entry, rays.
         let entry = match dual.shadows {
-            Shadows::Lookup(lookup) => lookup.toward(self.segment, d, wi),
+            Shadows::Lookup(lookup) => lookup.toward(self.segment, self.h, d, wi),
             Shadows::Rays => None,
         };
         let Some((lit, n)) = entry else { return self.f_rays(&inc, d) };

@@ -12,7 +12,7 @@ mod common;
 
 use common::{bundled, cache};
 
-/// Means over camera hits (pixel centers) of: the sun's lit fraction (lookup, shadow rays), the
+/// Means over camera hits (four per pixel) of: the sun's lit fraction (lookup, shadow rays), the
 /// environment's visibility weighted by f_s cos theta_i (directions drawn from the fiber's
 /// sampler) and unweighted (uniform directions), each (lookup, rays), and the count n toward the
 /// f_s-weighted directions (lookup, march).
@@ -29,9 +29,10 @@ fn compare(settings: LookupSettings) -> [(f64, f64); 4] {
     let mut sums = [[0.0; 2]; 4];
     let mut weights = [0.0; 4];
     let (mut hits, mut missing) = (0, 0);
-    for y in 0..48 {
-        for x in 0..48 {
-            let (o, d) = scene.camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+    // Four camera rays per pixel, on a 2 x 2 grid.
+    for y in 0..96 {
+        for x in 0..96 {
+            let (o, d) = scene.camera.ray(0.5 * x as f64 + 0.25, 0.5 * y as f64 + 0.25);
             let Some(hit) = scene.fibers.closest_hit(o, d.as_vec3(), f32::INFINITY) else { continue };
             // `dual`'s shading point and fiber frame (integrator::spawn_point, Frame::new).
             let from = hit.point - hit.normal * (0.01 * hit.radius);
@@ -49,37 +50,41 @@ fn compare(settings: LookupSettings) -> [(f64, f64); 4] {
             };
             hits += 1;
             // Segments no marking ray hit have no entries; `dual` traces rays for them.
-            let Some((lit, _)) = lookup.toward(hit.segment, sun, local(sun)) else {
+            let Some((lit, _)) = lookup.toward(hit.segment, h, sun, local(sun)) else {
                 missing += 1;
                 continue;
             };
             add(0, 1.0, lit, escapes(sun));
-            for _ in 0..8 {
+            for _ in 0..16 {
                 if let Some(s) = chiang.sample(wo, h, rng.random()) {
                     let d = world(s.wi);
-                    let (lit, n) = lookup.toward(hit.segment, d, s.wi).unwrap();
+                    let (lit, n) = lookup.toward(hit.segment, h, d, s.wi).unwrap();
                     let weight = s.weight().luminance();
                     add(1, weight, lit, escapes(d));
                     add(3, weight, n, grid.fibers_crossed(from.as_dvec3(), d, f64::INFINITY));
                 }
                 let d = uniform_sphere(rng.random());
-                add(2, 1.0, lookup.toward(hit.segment, d, local(d)).unwrap().0, escapes(d));
+                add(2, 1.0, lookup.toward(hit.segment, h, d, local(d)).unwrap().0, escapes(d));
             }
         }
     }
     println!("{missing} of {hits} camera hits on segments without entries");
-    assert!(missing * 50 < hits, "{missing} of {hits} camera hits found no entry");
+    // Measured: 59 of 3149 (1.9%), on fibers thinner than the marking rays' spacing.
+    assert!(missing * 100 < 3 * hits, "{missing} of {hits} camera hits found no entry");
     std::array::from_fn(|k| (sums[k][0] / weights[k], sums[k][1] / weights[k]))
 }
 
 #[test]
 fn lookup_agrees_with_shadow_rays_and_the_grid_march() {
     // Bounds on |lookup / exact - 1| per resolution (env_theta x env_phi): sun lit fraction, f_s-
-    // weighted and uniform visibility, and n. Measured (brown swatch, 48 px): 8 x 8: +2.0%,
-    // +15.6%, -1.4%, -13.3%; 16 x 16: +2.0%, +4.4%, -2.8%, -2.3%; 32 x 32: +2.0%, +2.1%, -3.7%,
-    // -2.2%. A map in world space instead of the fiber frame measured +100% on the f_s-weighted
-    // visibility at 8 x 8, a voxel lattice's e^-n -43% on the sun's lit fraction.
-    for (theta, phi, bounds) in [(8, 8, [0.05, 0.25, 0.05, 0.2]), (16, 16, [0.05, 0.08, 0.06, 0.05])] {
+    // weighted and uniform visibility, and n. Measured (brown swatch, 48 px, four hits per
+    // pixel): 8 x 8: -1.2%, -0.5%, -2.3%, -3.1%; 16 x 16: -1.2%, -1.8%, -1.8%, -2.1% (the f_s-
+    // weighted mean is the noisiest: +1.8% at 16 x 16 from pixel centers alone). Earlier designs,
+    // measured the same way at pixel centers: points anywhere on the segment's facing half
+    // +2.0% on the sun; counts on a map of half the resolution -13.3% on n at 8 x 8; a map in
+    // world space +100% on the f_s-weighted visibility at 8 x 8; a voxel lattice's e^-n -43% on
+    // the sun.
+    for (theta, phi, bounds) in [(8, 8, [0.04, 0.08, 0.05, 0.06]), (16, 16, [0.04, 0.05, 0.04, 0.04])] {
         let settings = LookupSettings { env_theta: theta, env_phi: phi, ..LookupSettings::default() };
         let means = compare(settings);
         for (k, name) in

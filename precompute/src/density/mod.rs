@@ -198,18 +198,19 @@ impl DensityGrid {
             return 0.0;
         }
         let (a, b) = (origin + t0 * dir, origin + t1 * dir);
-        let len = t1 - t0;
         let mut integral = 0.0;
-        // Consecutive voxels mostly share a brick: look each brick up once per visit.
-        let mut brick: ([i32; 3], Option<&[f32; BRICK_VOXELS]>) = ([i32::MIN; 3], None);
-        traverse(a, b, self.voxel_size, |v, s0, s1| {
-            let (key, i) = brick_of(v);
-            if key != brick.0 {
-                brick = (key, self.bricks.get(&key).map(|d| &**d));
-            }
-            if let Some(d) = brick.1 {
-                integral += d[i] as f64 * (s1 - s0) * len;
-            }
+        // Brick by brick, then voxel by voxel inside the stored bricks only: a march through a
+        // groom crosses mostly empty space (the head, the air around it).
+        traverse(a, b, self.voxel_size * BRICK as f64, |key, s0, s1| {
+            let Some(data) = self.bricks.get(&key) else { return };
+            let (p, q) = (a.lerp(b, s0), a.lerp(b, s1));
+            let len = (t1 - t0) * (s1 - s0);
+            traverse(p, q, self.voxel_size, |v, u0, u1| {
+                // Rounding can put the first or last voxel of the piece in a neighbouring brick.
+                let (k, i) = brick_of(v);
+                let d = if k == key { data[i] } else { self.bricks.get(&k).map_or(0.0, |o| o[i]) };
+                integral += d as f64 * (u1 - u0) * len;
+            });
         });
         integral * self.fiber_width
     }

@@ -4,7 +4,7 @@
 //! as there: texel column u = atan2(d.y, -d.x) / 2pi + 1/2, row from the top at elevation +pi/2
 //! to the bottom at -pi/2. `rotation` turns the map about +Z (degrees, counter-clockwise from above).
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result, anyhow, bail};
 use glam::DVec3;
 use precompute::conventions::{SPHERE, uniform_sphere};
 use precompute::spectrum::Rgb;
@@ -76,7 +76,8 @@ impl EnvMap {
                         px[pos.y() * *w + pos.x()] = Rgb([r as f64, g as f64, b as f64])
                     },
                 )
-                .with_context(|| format!("{}: cannot read as an EXR environment map", path.display()))?;
+                // The exr crate's error already says its cause: as a context it would print twice.
+                .map_err(|e| anyhow!("{}: cannot read as an EXR environment map: {e}", path.display()))?;
                 let (w, px) = image.layer_data.channel_data.pixels;
                 (w, px.len() / w.max(1), px)
             }
@@ -249,6 +250,16 @@ impl Sun {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_missing_map_is_named_with_its_cause_once() {
+        for name in ["missing.exr", "missing.hdr"] {
+            let path = std::env::temp_dir().join("dualhair-no-such-dir").join(name);
+            let message = format!("{:#}", EnvMap::load(&path, 1.0, 0.0).err().expect("a missing file is an error"));
+            assert!(message.starts_with(&path.display().to_string()), "{message}");
+            assert_eq!(message.matches("os error 2").count(), 1, "{message}");
+        }
+    }
 
     /// A small map with a bright spot, so the distribution is far from uniform.
     fn spotty_map() -> EnvMap {

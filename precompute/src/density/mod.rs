@@ -9,7 +9,7 @@
 
 use crate::strands::Strands;
 use glam::DVec3;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 mod vdb;
 pub use vdb::{VdbError, read_vdb, write_vdb};
@@ -26,7 +26,7 @@ pub struct DensityGrid {
     /// Width of a fiber (mean diameter), to turn length crossed into fibers crossed.
     pub fiber_width: f64,
     /// Bricks keyed by the index of their first voxel divided by `BRICK`.
-    bricks: HashMap<[i32; 3], Box<[f32; BRICK_VOXELS]>>,
+    bricks: FxHashMap<[i32; 3], Box<[f32; BRICK_VOXELS]>>,
     /// World bounds of the stored bricks (where a ray march can find hair).
     bounds: Option<(DVec3, DVec3)>,
 }
@@ -95,7 +95,7 @@ impl DensityGrid {
     /// Voxelizes strands: exact length of every segment inside every voxel, over the voxel volume.
     pub fn voxelize(strands: &Strands, voxel_size: f64) -> DensityGrid {
         assert!(voxel_size > 0.0 && voxel_size.is_finite(), "voxel size must be finite and > 0");
-        let mut sums: HashMap<[i32; 3], Box<[f64; BRICK_VOXELS]>> = HashMap::new();
+        let mut sums: FxHashMap<[i32; 3], Box<[f64; BRICK_VOXELS]>> = FxHashMap::default();
         for s in strands.segments() {
             let (a, b) = (s.a.as_dvec3(), s.b.as_dvec3());
             let len = (b - a).length();
@@ -109,7 +109,7 @@ impl DensityGrid {
         DensityGrid::new(voxel_size, 2.0 * mean_radius(strands), bricks)
     }
 
-    fn new(voxel_size: f64, fiber_width: f64, bricks: HashMap<[i32; 3], Box<[f32; BRICK_VOXELS]>>) -> DensityGrid {
+    fn new(voxel_size: f64, fiber_width: f64, bricks: FxHashMap<[i32; 3], Box<[f32; BRICK_VOXELS]>>) -> DensityGrid {
         let s = voxel_size * BRICK as f64;
         let bounds = bricks.keys().fold(None, |acc: Option<(DVec3, DVec3)>, b| {
             let lo = DVec3::from_array(b.map(|c| c as f64)) * s;
@@ -125,7 +125,7 @@ impl DensityGrid {
         fiber_width: f64,
         voxels: impl IntoIterator<Item = ([i32; 3], f32)>,
     ) -> DensityGrid {
-        let mut bricks: HashMap<[i32; 3], Box<[f32; BRICK_VOXELS]>> = HashMap::new();
+        let mut bricks: FxHashMap<[i32; 3], Box<[f32; BRICK_VOXELS]>> = FxHashMap::default();
         for (v, d) in voxels {
             let (brick, i) = brick_of(v);
             bricks.entry(brick).or_insert_with(|| Box::new([0.0; BRICK_VOXELS]))[i] = d;
@@ -205,11 +205,12 @@ impl DensityGrid {
             let Some(data) = self.bricks.get(&key) else { return };
             let (p, q) = (a.lerp(b, s0), a.lerp(b, s1));
             let len = (t1 - t0) * (s1 - s0);
+            let base = key.map(|c| c * BRICK);
             traverse(p, q, self.voxel_size, |v, u0, u1| {
-                // Rounding can put the first or last voxel of the piece in a neighbouring brick.
-                let (k, i) = brick_of(v);
-                let d = if k == key { data[i] } else { self.bricks.get(&k).map_or(0.0, |o| o[i]) };
-                integral += d as f64 * (u1 - u0) * len;
+                // Rounding can step the piece's ends into a neighbouring brick's voxel for a
+                // length of order 1e-16 of the piece: that sliver counts in the nearest voxel here.
+                let l = [0, 1, 2].map(|k| (v[k] - base[k]).clamp(0, BRICK - 1));
+                integral += data[((l[2] * BRICK + l[1]) * BRICK + l[0]) as usize] as f64 * (u1 - u0) * len;
             });
         });
         integral * self.fiber_width

@@ -103,10 +103,11 @@ impl Cache {
         Ok(grid)
     }
 
-    /// The forward-transmittance lookup of a scene's hair, seen by its camera, toward its lights; `progress` shows a
-    /// bar while it is built. Keyed by the strands, the density grid's contents, the sun's
-    /// direction and disc, whether there is an environment (its directions are fixed, so its
-    /// image does not matter) and the lookup's resolutions.
+    /// The forward-transmittance lookup of a scene's hair, seen by its camera, toward its lights;
+    /// `progress` shows a bar while it is built. Keyed by the strands, the camera, the density
+    /// grid's contents, the sun's direction and disc, whether there is an environment (its
+    /// directions are fixed, so its image does not matter), the lookup's resolutions and the
+    /// build's version.
     pub fn lookup(&self, scene: &Scene, grid: &DensityGrid, progress: bool) -> Result<ForwardLookup> {
         let (strands, lights, settings, camera) = (&scene.strands, &scene.lights, &scene.dual.lookup, &scene.camera);
         let mut h = hash_strands(Fnv::new(), strands).bytes(format!("{camera:?}").as_bytes());

@@ -51,13 +51,14 @@
 
 use crate::fibers::{Fibers, Hit};
 use crate::integrator::{
-    CameraSample, Frame, Integrator, Term, Terms, background, light_weight, sample_lights, seen_lights, spawn_point,
+    CameraSample, Frame, Integrator, Term, Terms, background, hit_frame, light_weight, sample_lights, seen_lights,
+    spawn_point,
 };
 use crate::light::{LightSample, Lights};
 use crate::scene::Sampling;
 use crate::transmittance::ForwardLookup;
 use glam::{DVec3, Vec3};
-use precompute::conventions::{SPHERE, h_offset, phi, pick, sin_cos_theta, uniform_sphere, wrap_angle};
+use precompute::conventions::{SPHERE, phi, pick, sin_cos_theta, uniform_sphere, wrap_angle};
 use precompute::density::DensityGrid;
 use precompute::fiber::{Longitudinal, SpreadScattering};
 use precompute::spectrum::Rgb;
@@ -304,9 +305,7 @@ struct Shading<'a> {
 
 impl<'a> Shading<'a> {
     fn new(dual: &'a DualScattering<'a>, hit: &Hit, dir: DVec3) -> Shading<'a> {
-        let frame = Frame::new(hit.tangent);
-        let wo = frame.to_local(-dir);
-        let h = h_offset(wo, frame.to_local(hit.normal.as_dvec3()));
+        let (frame, wo, h) = hit_frame(hit, dir);
         let uniform = DEFENSIVE * dual.d_f.max(dual.d_b);
         let (theta_o, phi_o) = (sin_cos_theta(wo).0.asin(), phi(wo));
         Shading { dual, frame, wo, theta_o, phi_o, h, from: spawn_point(hit), segment: hit.segment, uniform }

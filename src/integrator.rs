@@ -67,6 +67,16 @@ pub(crate) fn light_weight(s: &LightSample, direction_pdf: impl FnOnce() -> f64)
     s.radiance * (w / s.pdf)
 }
 
+/// The fiber frame at a hit seen along `dir` (unit, world), the direction toward the viewer in
+/// it, and the offset h across the fiber (design section 3): what every shading of a hit starts
+/// from, and what the forward-transmittance lookup bins its entries by.
+pub(crate) fn hit_frame(hit: &Hit, dir: DVec3) -> (Frame, DVec3, f64) {
+    let frame = Frame::new(hit.tangent);
+    let wo = frame.to_local(-dir);
+    let h = h_offset(wo, frame.to_local(hit.normal.as_dvec3()));
+    (frame, wo, h)
+}
+
 /// Where new rays leave a hit: just inside the fiber, which the BVH then ignores (rays only enter
 /// fibers from outside), so a ray leaving through its own fiber cannot hit it again however the
 /// hit point was rounded.
@@ -189,9 +199,7 @@ impl Integrator for PathTracer<'_> {
         // Backward events at the vertices after the camera fiber's, so far.
         let mut backward = 0;
         for depth in 1..=self.max_depth {
-            let frame = Frame::new(hit.tangent);
-            let wo = frame.to_local(-dir);
-            let h = h_offset(wo, frame.to_local(hit.normal.as_dvec3()));
+            let (frame, wo, h) = hit_frame(&hit, dir);
             let from = spawn_point(&hit);
             // Backward events counting this vertex's, for light arriving from `wi`.
             let events = |back: bool| backward + (depth > 1 && back) as u32;

@@ -27,12 +27,12 @@
 
 use crate::camera::Camera;
 use crate::fibers::Fibers;
-use crate::integrator::{Frame, spawn_point};
+use crate::integrator::{Frame, hit_frame, spawn_point};
 use crate::light::Lights;
 use anyhow::ensure;
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
-use precompute::conventions::{direction, h_offset, phi, sin_cos_theta};
+use precompute::conventions::{direction, phi, sin_cos_theta};
 use precompute::density::DensityGrid;
 use precompute::strands::{Segment, Strands};
 use rand::{Rng, SeedableRng};
@@ -215,9 +215,9 @@ fn sun_bin(h: f64) -> usize {
 }
 
 /// `SHADING_POINTS` points where camera rays hit segment `i` (`s`), placed as `dual` places its
-/// shading points there (`spawn_point`), each with its offset h (`h_offset`): stratified along the segment, uniform across it, and
-/// drawn only from the parts the camera sees (a camera ray toward the point must hit this
-/// segment first). Parts hidden behind other fibers are also more shadowed toward the lights:
+/// shading points there (`spawn_point`), each with its offset h (`hit_frame`): stratified along
+/// the segment, uniform across it, and drawn only from the parts the camera sees (a camera ray
+/// toward the point must hit this segment first). Parts hidden behind other fibers are also more shadowed toward the lights:
 /// measured from every part of the segment, the lit fraction came out 2-5% low under the
 /// bundled HDRIs (README). Once a point's tries all fail, the segment is barely in view (seen
 /// through a gap too narrow to find again, so camera rays seldom read its entries): its other
@@ -241,13 +241,11 @@ fn shading_points(
                 if let Some(hit) = fibers.closest_hit(viewer.as_vec3(), d.as_vec3(), f32::INFINITY)
                     && hit.segment == i
                 {
-                    let frame = Frame::new(hit.tangent);
-                    let h = h_offset(frame.to_local(-d), frame.to_local(hit.normal.as_dvec3()));
-                    return (spawn_point(&hit).as_dvec3(), h);
+                    return (spawn_point(&hit).as_dvec3(), hit_frame(&hit, d).2);
                 }
             }
             tries = 0;
-            // `facing_point`'s offset across is -h of `h_offset` (its side is t x v).
+            // `facing_point`'s offset across is -h of `hit_frame` (its side is t x v).
             let (t, across) = draw();
             (facing_point(s, tangent, viewer, t, across, 0.99), -across)
         })
@@ -300,7 +298,6 @@ impl ForwardLookup {
                 // Sample k takes a point by a stride coprime to their count, to spread them.
                 let point = |k: usize| points[(k * 7919) % SHADING_POINTS].0;
                 let sun = lights.sun.as_ref().map_or((Vec::new(), 0.0), |sun| {
-                    let (t1, t2) = sun.direction.any_orthonormal_pair();
                     let mut count = 0.0;
                     let lit = (0..SUN_BINS)
                         .map(|bin| {
@@ -313,12 +310,8 @@ impl ForwardLookup {
                             let k = settings.sun_rays as usize;
                             let mut lit = 0.0;
                             for r in 0..k {
-                                // Uniform over the disc's cone.
                                 let p = own[(r * 7919) % own.len()];
-                                let cos_t = 1.0 - rng.random::<f64>() * (1.0 - sun.half_angle.cos());
-                                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-                                let (sp, cp) = (TAU * rng.random::<f64>()).sin_cos();
-                                let d = (t1 * (cp * sin_t) + t2 * (sp * sin_t) + sun.direction * cos_t).normalize();
+                                let d = sun.sample(rng.random()).wi;
                                 lit += escapes(p, d) as u8 as f64;
                                 count += march(p, d);
                             }

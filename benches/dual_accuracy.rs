@@ -113,6 +113,7 @@ fn main() {
                 file.hair.rotate = [0.0; 3];
                 file.lights.environment = Some(EnvSpec {
                     file: Some(PathBuf::from(format!("{root}/scenes/hdri/courtyard.exr"))),
+                    rotation: 180.0,
                     ..EnvSpec::default()
                 });
             }

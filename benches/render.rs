@@ -95,8 +95,11 @@ fn main() {
         let mut groom = SceneFile::load(Path::new(&format!("{root}/scenes/brown.json"))).unwrap();
         groom.hair = HairSpec { file: Some(f.into()), generate: None, ..groom.hair };
         groom.hair.rotate = [0.0; 3];
-        groom.lights.environment =
-            Some(EnvSpec { file: Some(format!("{root}/scenes/hdri/courtyard.exr").into()), ..EnvSpec::default() });
+        groom.lights.environment = Some(EnvSpec {
+            file: Some(format!("{root}/scenes/hdri/courtyard.exr").into()),
+            rotation: 180.0,
+            ..EnvSpec::default()
+        });
         groom.lights.sun =
             Some(SunSpec { direction: [0.3, -1.0, 0.5], irradiance: OneOrRgb::One(3.0), angular_diameter: 0.53 });
         (groom.camera.width, groom.camera.height) = (256, 256);

@@ -42,6 +42,12 @@ impl Camera {
         self.position
     }
 
+    /// Position, a point it looks at (one unit ahead) and its up vector (unit, orthogonal to the
+    /// view direction): what `camera.position`, `camera.look_at` and `camera.up` resolve to.
+    pub fn orientation(&self) -> (DVec3, DVec3, DVec3) {
+        (self.position, self.position + self.forward, self.up.normalize())
+    }
+
     /// Width of a pixel at `distance` from the camera, in scene units.
     pub fn pixel_width(&self, distance: f64) -> f64 {
         2.0 * self.up.length() * distance / self.height as f64

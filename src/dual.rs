@@ -91,7 +91,7 @@ pub enum Transmittance {
 /// The dual-scattering model: Zinke et al. 2008 read literally, the measured default, and the
 /// other variants of the README's ablation table (issue 11). The first four each change one thing
 /// from the one before; the last three each change one thing in `poisson`.
-#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(serde::Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 #[value(rename_all = "snake_case")]
 pub enum DualModel {

@@ -24,7 +24,8 @@ pub struct FiberArgs {
     /// Azimuthal roughness in (0, 1].
     #[arg(long, default_value_t = 0.3, allow_negative_numbers = true)]
     pub beta_n: f64,
-    /// Cuticle scale tilt in degrees (negative allowed; pbrt's sign, the opposite of Cycles' Offset).
+    /// Cuticle scale tilt in degrees (negative allowed; positive puts R toward the root, as Cycles'
+    /// Offset does; pbrt-v3/v4 use the opposite sign).
     #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
     pub alpha: f64,
     /// Index of refraction of the fiber (> 1).

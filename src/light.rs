@@ -133,18 +133,21 @@ impl EnvMap {
     }
 
     /// Continuous map coordinates (u right, v down, both in [0, 1)) of a world direction.
+    /// Blender's orientation (Cycles' `direction_to_equirectangular`: u = 0.5 - atan2(y, x) / 2 pi,
+    /// so the center column looks toward +X); `rotation` turns the lookup direction about +Z as
+    /// Blender's Mapping node does (checked against Cycles renders: README, "Cycles").
     fn uv(&self, d: DVec3) -> (f64, f64) {
-        let phi = d.y.atan2(-d.x) - self.rotation;
-        let u = (phi / TAU + 0.5).rem_euclid(1.0);
+        let phi = d.y.atan2(d.x) + self.rotation;
+        let u = (0.5 - phi / TAU).rem_euclid(1.0);
         let v = 0.5 - d.z.clamp(-1.0, 1.0).asin() / PI;
         (u, v.clamp(0.0, 1.0))
     }
 
     fn direction(&self, u: f64, v: f64) -> DVec3 {
-        let phi = (u - 0.5) * TAU + self.rotation;
+        let phi = (0.5 - u) * TAU - self.rotation;
         let elevation = (0.5 - v) * PI;
         let (se, ce) = elevation.sin_cos();
-        DVec3::new(-phi.cos() * ce, phi.sin() * ce, se)
+        DVec3::new(phi.cos() * ce, phi.sin() * ce, se)
     }
 
     fn texel(&self, u: f64, v: f64) -> usize {
@@ -314,10 +317,16 @@ mod tests {
             let (u2, v2) = map.uv(map.direction(u, v));
             assert!((u - u2).abs() < 1e-12 && (v - v2).abs() < 1e-12);
         }
-        // Top row is up; with rotation 0 the map's center column looks toward -X (Blender).
+        // Top row is up; with rotation 0 the map's center column looks toward +X and u grows
+        // toward -Y, as in Blender (Cycles' kernel/camera/projection.h: u = 0.5 - atan2(y, x) / 2 pi).
         let plain = EnvMap::new(4, 2, vec![Rgb::ONE; 8], 0.0);
         assert!(plain.direction(0.3, 0.0).z > 0.999);
-        assert!((plain.direction(0.5, 0.5) - DVec3::new(-1.0, 0.0, 0.0)).length() < 1e-12);
+        assert!((plain.direction(0.5, 0.5) - DVec3::X).length() < 1e-12);
+        assert!((plain.direction(0.75, 0.5) - DVec3::NEG_Y).length() < 1e-12);
+        // A rotation of 90 degrees turns the lookup direction by +90 degrees about +Z (Blender's
+        // Mapping node): the direction that reads the center column is then -Y.
+        let turned = EnvMap::new(4, 2, vec![Rgb::ONE; 8], 90.0);
+        assert!((turned.direction(0.5, 0.5) - DVec3::NEG_Y).length() < 1e-12);
     }
 
     #[test]

@@ -1,9 +1,11 @@
 use clap::{Parser, Subcommand};
 use dualhair::calibrate_cmd::{self, CalibrateArgs};
+use dualhair::compare_cmd::{self, CompareArgs};
 use dualhair::converge_cmd::{self, ConvergeArgs};
 use dualhair::lobe_cmd::{self, LobeArgs};
 use dualhair::precompute_cmd::{self, PrecomputeCommand};
 use dualhair::render_cmd::{self, RenderArgs};
+use dualhair::resolve_cmd::{self, ResolveArgs};
 
 /// dualhair: a hair renderer that makes multiple scattering cheap (dual scattering with a
 /// voxel hair-density grid, d'Eon importance sampling, and a path-traced reference).
@@ -25,8 +27,13 @@ enum Command {
     Lobe(LobeArgs),
     /// Compare methods: error vs. spp and vs. wall time, with tables and charts.
     Converge(ConvergeArgs),
+    /// Compare an image with a reference over the hair: mean ratio and relative RMSE.
+    Compare(CompareArgs),
     /// Fit dual's d_f and d_b to a path-traced reference of a scene.
     Calibrate(CalibrateArgs),
+    /// Write a scene with everything derived made explicit (hair as a .hair file in world units,
+    /// camera, sigma_a, absolute paths), e.g. for tools/cycles_reference.py.
+    Resolve(ResolveArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -36,7 +43,9 @@ fn main() -> std::process::ExitCode {
         Command::Precompute(command) => precompute_cmd::run(command),
         Command::Lobe(args) => lobe_cmd::run(args),
         Command::Converge(args) => converge_cmd::run(args),
+        Command::Compare(args) => compare_cmd::run(args),
         Command::Calibrate(args) => calibrate_cmd::run(args),
+        Command::Resolve(args) => resolve_cmd::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

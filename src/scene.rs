@@ -12,10 +12,10 @@ use glam::{DMat4, DVec3, EulerRot};
 use precompute::fiber::FiberParams;
 use precompute::spectrum::Rgb;
 use precompute::strands::{Generator, Strands, read_hair};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct SceneFile {
     pub hair: HairSpec,
@@ -33,10 +33,12 @@ pub struct SceneFile {
 
 /// The hair: a .hair file or a generator, then scaled, rotated (XYZ Euler angles in degrees) and
 /// translated, in that order; `radius` replaces every fiber radius (after scaling).
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct HairSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub file: Option<PathBuf>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub generate: Option<Generator>,
     #[serde(default = "one")]
     pub scale: f64,
@@ -44,15 +46,18 @@ pub struct HairSpec {
     pub rotate: [f64; 3],
     #[serde(default)]
     pub translate: [f64; 3],
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub radius: Option<f64>,
 }
 
 /// A pinhole camera. Without `position` the camera frames the hair's bounding box from the front
 /// (-Y), looking along +Y with +Z up.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(default, deny_unknown_fields)]
 pub struct CameraSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub position: Option<[f64; 3]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub look_at: Option<[f64; 3]>,
     pub up: [f64; 3],
     /// Vertical field of view in degrees.
@@ -68,10 +73,12 @@ impl Default for CameraSpec {
 }
 
 /// Lights. Without this section the hair sits in a uniform white environment of radiance 1.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct LightsSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub environment: Option<EnvSpec>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub sun: Option<SunSpec>,
 }
 
@@ -83,10 +90,12 @@ impl Default for LightsSpec {
 
 /// An environment: a lat-long map (`file`, .exr or .hdr) or a constant `color`; radiance times
 /// `strength`; the map turned by `rotation` degrees about +Z.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(default, deny_unknown_fields)]
 pub struct EnvSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub file: Option<PathBuf>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub color: Option<[f64; 3]>,
     pub strength: f64,
     pub rotation: f64,
@@ -100,7 +109,7 @@ impl Default for EnvSpec {
 
 /// A distant sun: `direction` toward it, `irradiance` (one value or R,G,B) on a surface facing it,
 /// `angular_diameter` in degrees (0 for a directional light; the real sun is 0.53).
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct SunSpec {
     pub direction: [f64; 3],
@@ -109,7 +118,7 @@ pub struct SunSpec {
     pub angular_diameter: f64,
 }
 
-#[derive(Deserialize, Debug, Clone, Copy)]
+#[derive(Serialize, Deserialize, Debug, Clone, Copy)]
 #[serde(untagged)]
 pub enum OneOrRgb {
     One(f64),
@@ -125,7 +134,7 @@ impl OneOrRgb {
     }
 }
 
-#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, clap::ValueEnum)]
+#[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum IntegratorKind {
     /// Direct lighting only.
@@ -139,7 +148,7 @@ pub enum IntegratorKind {
     Auto,
 }
 
-#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, clap::ValueEnum)]
+#[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum Sampling {
     /// d'Eon et al. 2013 fiber importance sampling (for dual, a mixture covering all its terms).
@@ -151,7 +160,7 @@ pub enum Sampling {
 }
 
 /// The dual-scattering integrator's parameters (Zinke et al. 2008; design section 4).
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(default, deny_unknown_fields)]
 pub struct DualSpec {
     /// Forward scattering density factor d_f in [0, 1].
@@ -161,10 +170,12 @@ pub struct DualSpec {
     /// How the light that reaches a fiber through other fibers is modelled.
     pub model: DualModel,
     /// Voxel size of the density grid in scene units (default: chosen from the hair).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub voxel_size: Option<f64>,
     /// A density grid made elsewhere: an OpenVDB file with a float grid `density` of hair length
     /// per unit volume and `fiber_width` metadata, in the hair's final (world) frame. Default:
     /// voxelize the hair.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub density_grid: Option<PathBuf>,
     /// Shadow rays or the precomputed forward-transmittance lookup (default).
     pub shadows: ShadowMode,
@@ -173,7 +184,7 @@ pub struct DualSpec {
 }
 
 /// How `dual` finds what lies between a shading point and a light (see [`crate::dual::Shadows`]).
-#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum ShadowMode {
     /// Shadow rays through the real strands and grid marches: crisp hair-on-hair shadows.
@@ -196,7 +207,7 @@ impl Default for DualSpec {
     }
 }
 
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(default, deny_unknown_fields)]
 pub struct RenderSpec {
     pub integrator: IntegratorKind,
@@ -205,6 +216,7 @@ pub struct RenderSpec {
     /// Most fiber vertices on a path (`path` only); Russian roulette ends most paths long before.
     pub max_depth: u32,
     /// Direction sampling (see [`RenderSpec::sampling`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub sampling: Option<Sampling>,
     /// PNG exposure in stops.
     pub exposure: f64,

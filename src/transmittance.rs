@@ -44,7 +44,7 @@ use std::io::Write;
 
 /// Resolutions of the lookup (scene file `dual.lookup`), chosen by measured error against the
 /// exact rays and marches (README, "The forward-transmittance lookup").
-#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(serde::Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
 #[serde(default, deny_unknown_fields)]
 pub struct LookupSettings {
     /// Shadow rays toward the sun per segment and bin of h across it.
@@ -255,7 +255,7 @@ fn shading_points(
 impl ForwardLookup {
     /// Changes whenever `build` measures differently, so that caches of an older build are not
     /// reused (part of the cache key).
-    pub const VERSION: u32 = 2;
+    pub const VERSION: u32 = 3;
 
     /// Precomputes the lookup for the lights of a scene; `progress` shows a bar. Deterministic:
     /// each segment draws from its own random stream.

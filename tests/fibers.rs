@@ -120,3 +120,36 @@ fn hits_closer_than_cwbvh_cutoff_are_found() {
     assert!(through.is_none(), "{through:?}");
     assert!(fibers.occluded(origin, Vec3::X, 1.0));
 }
+
+#[test]
+fn a_ray_inside_a_fiber_crosses_no_joint() {
+    // A straight strand of three points is a convex tube: a ray from inside it (as rays leaving a
+    // scattering event start, 1% of the radius below the surface) leaves it once and hits
+    // nothing, even where it passes the joint, inside the next segment's end sphere. A second
+    // strand crossing through the first one is a real hit, as in Blender Cycles.
+    let r = 0.05f32;
+    let strands = Strands { points: vec![Vec3::ZERO, Vec3::Z, 2.0 * Vec3::Z], radii: vec![r; 3], offsets: vec![0, 3] };
+    let fibers = Fibers::new(&strands);
+    let mut rng = Pcg64::seed_from_u64(7);
+    let mut near_joint = 0;
+    for _ in 0..20_000 {
+        let (phi, z) = (std::f32::consts::TAU * rng.random::<f32>(), 1.0 - 0.2 * rng.random::<f32>());
+        let origin = Vec3::new(0.99 * r * phi.cos(), 0.99 * r * phi.sin(), z);
+        let d = Vec3::new(rng.random::<f32>() - 0.5, rng.random::<f32>() - 0.5, 2.0 * rng.random::<f32>()).normalize();
+        near_joint += (z > 1.0 - 0.14 * r) as u32;
+        let hit = fibers.closest_hit(origin, d, 10.0);
+        assert!(hit.is_none(), "a ray from {origin} along {d} hit {hit:?}");
+        assert!(!fibers.occluded(origin, d, 10.0));
+        assert_eq!(fibers.crossings(origin, d), 0);
+    }
+    assert!(near_joint > 100, "too few origins inside the next segment's end sphere: {near_joint}");
+
+    let crossing = Strands {
+        points: vec![Vec3::ZERO, Vec3::Z, 2.0 * Vec3::Z, Vec3::new(-1.0, 0.03, 1.0), Vec3::new(1.0, 0.03, 1.0)],
+        radii: vec![r; 5],
+        offsets: vec![0, 3, 5],
+    };
+    let fibers = Fibers::new(&crossing);
+    let hit = fibers.closest_hit(Vec3::new(-0.99 * r, 0.0, 0.9), Vec3::Z, 1.0).expect("the crossing strand");
+    assert_eq!(hit.segment, 2);
+}

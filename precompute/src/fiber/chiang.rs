@@ -4,9 +4,11 @@
 //! f(wo, wi) |cos theta_i| = sum_{p < P_MAX} M_p(theta_o + shift_p, theta_i) A_p N_p(phi)
 //!                         + M_{P_MAX}(theta_o, theta_i) A_{P_MAX} / (2 pi)        (seed 002 eq. 1.1)
 //!
-//! Scale tilt: the lobe shifts shift_p = (2 alpha, -alpha, -4 alpha) for R, TT, TRT place the lobe
-//! peaks where pbrt-v3 puts them (R at theta_i = -theta_o - 2 alpha), but are applied to the fixed
-//! direction theta_o rather than to theta_i (as pbrt-v4 does). Each tilted M_p is then still a
+//! Scale tilt: the lobe shifts shift_p = (2 alpha, -alpha, -4 alpha) for R, TT, TRT put the R peak
+//! at theta_i = -theta_o - 2 alpha, toward the root for alpha > 0 (seed 002's text, Marschner 2003,
+//! and Blender Cycles' Offset; pbrt-v3/v4's code rotates theta_o by -2 alpha, the opposite sign:
+//! design section 3), and are applied to the fixed direction theta_o rather than to theta_i (as
+//! pbrt-v4 does). Each tilted M_p is then still a
 //! normalized density over wi, so the sampler is exact, f |cos| / pdf = 1 without absorption, and
 //! the model stays energy conserving at every tilt. The price is that the model is normalized in
 //! wi for fixed wo, not reciprocal: callers integrate over wi.

@@ -33,8 +33,8 @@ pub struct FiberParams {
     pub beta_m: f64,
     /// Azimuthal roughness in (0, 1].
     pub beta_n: f64,
-    /// Cuticle scale tilt in degrees; positive shifts R toward the root (pbrt-v3's sign; Cycles'
-    /// "Offset" has the opposite sign).
+    /// Cuticle scale tilt in degrees; positive shifts R toward the root (Blender Cycles' "Offset"
+    /// has this sign; pbrt-v3/v4's code the opposite one: a pbrt scene's alpha is our -alpha).
     pub alpha: f64,
     /// Index of refraction of the fiber relative to the surrounding medium (> 1).
     pub eta: f64,

@@ -2,7 +2,9 @@
 //! `dual` with shadow rays and `dual` with the forward-transmittance lookup (and the lookup's
 //! build time and memory) on the bundled swatches and, given one, the groom.
 //! `cargo bench --bench render -- [HAIR_FILE]`; without a file it uses a generated scalp of 30,000
-//! strands for the ray rates. All threads of the machine are used.
+//! strands for the ray rates. All threads of the machine are used. With a Python that has `bpy`
+//! (`DUALHAIR_BPY_PYTHON`, else `.venv-cycles/bin/python`), Blender Cycles path traces each scene
+//! too (tools/cycles_reference.py), in the same run.
 
 use dualhair::cache::Cache;
 use dualhair::camera::Camera;
@@ -27,6 +29,41 @@ fn rate(label: &str, count: usize, f: impl Fn() -> usize) {
         count as f64 / s / 1e6,
         100.0 * hits as f64 / count as f64
     );
+}
+
+/// The Python that can `import bpy`, if any (README, "Checking against Blender Cycles").
+fn bpy_python() -> Option<std::path::PathBuf> {
+    let candidate = std::env::var_os("DUALHAIR_BPY_PYTHON")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv-cycles/bin/python"));
+    let works =
+        std::process::Command::new(&candidate).args(["-c", "import bpy"]).output().is_ok_and(|o| o.status.success());
+    works.then_some(candidate)
+}
+
+/// Cycles' path-traced camera samples/s on `file` (M/s): from a render at `spp` and one at 1 spp,
+/// so that turning the curves into Cycles' own and building its BVH are not counted, as this
+/// benchmark does not count ours.
+fn cycles_rate(python: &Path, file: &SceneFile, spp: u32) -> f64 {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.json");
+    std::fs::write(&scene, serde_json::to_string(file).unwrap()).unwrap();
+    let seconds = |spp: u32| {
+        let out = std::process::Command::new(python)
+            .arg(format!("{}/tools/cycles_reference.py", env!("CARGO_MANIFEST_DIR")))
+            .arg(&scene)
+            .arg("-o")
+            .arg(dir.path().join("cycles.exr"))
+            .args(["--spp", &spp.to_string(), "--dualhair", env!("CARGO_BIN_EXE_dualhair")])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "cycles_reference.py failed: {}", String::from_utf8_lossy(&out.stderr));
+        let text = String::from_utf8_lossy(&out.stdout);
+        let report: serde_json::Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();
+        report["render_seconds"].as_f64().unwrap()
+    };
+    let (one, many) = (seconds(1), seconds(spp));
+    (file.camera.width * file.camera.height * (spp - 1) as usize) as f64 / (many - one) / 1e6
 }
 
 fn main() {
@@ -106,10 +143,14 @@ fn main() {
         scenes.push(("groom".into(), groom));
     }
     let spp = 16;
+    let python = bpy_python();
+    if python.is_none() {
+        println!("(no Python with bpy: Cycles is not measured)");
+    }
     println!(
-        "| scene | path | dual (rays) | dual (lookup) | lookup / path | lookup / rays | lookup build | lookup memory |"
+        "| scene | path | dual (rays) | dual (lookup) | lookup / path | lookup / rays | lookup build | lookup memory | Cycles path | path / Cycles |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     for (name, mut file) in scenes {
         file.render.spp = spp;
         let mut rates = Vec::new();
@@ -138,15 +179,20 @@ fn main() {
             render_prepared(&scene, inputs.as_ref(), false).unwrap();
             rates.push(samples as f64 / start.elapsed().as_secs_f64() / 1e6);
         }
+        // Cycles at 4x the spp: its per-sample time is the difference of two renders.
+        file.render.integrator = IntegratorKind::Path;
+        let cycles = python.as_deref().map(|p| cycles_rate(p, &file, 4 * spp));
         println!(
-            "| {name} | {:.3} M/s | {:.3} M/s | {:.3} M/s | {:.1}x | {:.1}x | {:.1} s | {:.1} MB |",
+            "| {name} | {:.3} M/s | {:.3} M/s | {:.3} M/s | {:.1}x | {:.1}x | {:.1} s | {:.1} MB | {} | {} |",
             rates[0],
             rates[1],
             rates[2],
             rates[2] / rates[0],
             rates[2] / rates[1],
             build.0,
-            build.1 as f64 / 1e6
+            build.1 as f64 / 1e6,
+            cycles.map_or("-".into(), |c| format!("{c:.3} M/s")),
+            cycles.map_or("-".into(), |c| format!("{:.2}x", rates[0] / c)),
         );
     }
 }

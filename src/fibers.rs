@@ -29,8 +29,16 @@ struct Capsule {
     a: DVec3,
     b: DVec3,
     r: f64,
-    /// Slots of the previous and next capsules of the same strand (`NONE` at its ends).
-    neighbours: [u32; 2],
+}
+
+/// A capsule as stored: world units in f32, 32 bytes, two to a cache line (the ray tests are
+/// bound by fetching them); [`Fibers::capsule`] turns it into fiber units in f64.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+struct Stored {
+    a: Vec3,
+    b: Vec3,
+    r: f32,
 }
 
 const NONE: u32 = u32::MAX;
@@ -53,8 +61,10 @@ pub struct Hit {
 /// Hair ready for ray queries.
 pub struct Fibers {
     bvh: CwBvh,
-    /// Capsules in BVH leaf order, in fiber units.
-    capsules: Vec<Capsule>,
+    /// Capsules in BVH leaf order.
+    capsules: Vec<Stored>,
+    /// Slots of the previous and next capsules of the same strand (`NONE` at its ends), per slot.
+    neighbours: Vec<[u32; 2]>,
     /// Original segment index of each capsule.
     ids: Vec<u32>,
     /// World units to fiber units.
@@ -70,33 +80,44 @@ fn enter_capsule(o: DVec3, d: DVec3, c: &Capsule, t_min: f64) -> Option<f64> {
     let len = ba.length();
     let u = ba / len;
     let r2 = c.r * c.r;
-    let mut best = f64::INFINITY;
-    let mut consider = |t: f64, s: f64, lo: f64, hi: f64| {
-        if t > t_min && t < best && s >= lo && s <= hi {
-            best = t;
-        }
-    };
-    // Cylinder body: the ray projected on the normal plane of the axis.
+    // Cylinder body: the ray projected on the normal plane of the axis. Both end spheres lie in
+    // the infinite cylinder, so a ray that misses it misses the capsule; one that enters it between
+    // the end planes enters the capsule there (it is convex); one that enters it beyond an end can
+    // only enter the capsule through that end's sphere.
     let oa = o - c.a;
     let d_perp = d - d.dot(u) * u;
     let a2 = d_perp.length_squared();
-    if a2 > 1e-24 {
+    let ends: &[(DVec3, f64, f64)] = if a2 > 1e-24 {
         let o_perp = oa - oa.dot(u) * u;
         let t0 = -o_perp.dot(d_perp) / a2;
         let miss2 = (o_perp + t0 * d_perp).length_squared();
-        if miss2 <= r2 {
-            let t = t0 - ((r2 - miss2) / a2).sqrt();
-            consider(t, (oa + t * d).dot(u), 0.0, len);
+        if miss2 > r2 {
+            return None;
         }
-    }
+        let t = t0 - ((r2 - miss2) / a2).sqrt();
+        let s = (oa + t * d).dot(u);
+        if s < 0.0 {
+            &[(c.a, f64::NEG_INFINITY, 0.0)]
+        } else if s > len {
+            &[(c.b, len, f64::INFINITY)]
+        } else {
+            return (t > t_min).then_some(t);
+        }
+    } else {
+        &[(c.a, f64::NEG_INFINITY, 0.0), (c.b, len, f64::INFINITY)]
+    };
     // End caps: spheres, counted only on the outer half beyond each end of the axis.
-    for (center, lo, hi) in [(c.a, f64::NEG_INFINITY, 0.0), (c.b, len, f64::INFINITY)] {
+    let mut best = f64::INFINITY;
+    for &(center, lo, hi) in ends {
         let oc = o - center;
         let t0 = -oc.dot(d);
         let miss2 = (oc + t0 * d).length_squared();
         if miss2 <= r2 {
             let t = t0 - (r2 - miss2).sqrt();
-            consider(t, (o + t * d - c.a).dot(u), lo, hi);
+            let s = (o + t * d - c.a).dot(u);
+            if t > t_min && t < best && s >= lo && s <= hi {
+                best = t;
+            }
         }
     }
     best.is_finite().then_some(best)
@@ -125,7 +146,7 @@ impl Fibers {
             })
             .collect();
         let mut build_time = Duration::ZERO;
-        let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, BvhBuildParams::medium_build(), &mut build_time);
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, BvhBuildParams::slow_build(), &mut build_time);
         let ids = bvh.primitive_indices.clone();
         let mut slots = vec![0; ids.len()];
         for (slot, &id) in ids.iter().enumerate() {
@@ -136,25 +157,31 @@ impl Fibers {
         let capsules = ids
             .iter()
             .map(|&i| {
-                let (i, s) = (i as usize, segments[i as usize]);
-                let prev = if i > 0 && joined(i - 1) { slots[i - 1] } else { NONE };
-                let next = if joined(i) { slots[i + 1] } else { NONE };
-                Capsule {
-                    a: s.a.as_dvec3() * scale,
-                    b: s.b.as_dvec3() * scale,
-                    r: s.radius as f64 * scale,
-                    neighbours: [prev, next],
-                }
+                let s = segments[i as usize];
+                Stored { a: s.a, b: s.b, r: s.radius }
             })
             .collect();
-        Fibers { bvh, capsules, ids, scale }
+        let neighbours = ids
+            .iter()
+            .map(|&i| {
+                let i = i as usize;
+                [if i > 0 && joined(i - 1) { slots[i - 1] } else { NONE }, if joined(i) { slots[i + 1] } else { NONE }]
+            })
+            .collect();
+        Fibers { bvh, capsules, neighbours, ids, scale }
+    }
+
+    /// The capsule in leaf slot `slot`, in fiber units.
+    fn capsule(&self, slot: usize) -> Capsule {
+        let c = &self.capsules[slot];
+        Capsule { a: c.a.as_dvec3() * self.scale, b: c.b.as_dvec3() * self.scale, r: c.r as f64 * self.scale }
     }
 
     /// The unit tangent a hit on each segment reports, indexed by segment.
     pub fn tangents(&self) -> Vec<Vec3> {
         let mut t = vec![Vec3::ZERO; self.capsules.len()];
-        for (c, &id) in self.capsules.iter().zip(&self.ids) {
-            t[id as usize] = Self::tangent(c);
+        for (slot, &id) in self.ids.iter().enumerate() {
+            t[id as usize] = Self::tangent(&self.capsule(slot));
         }
         t
     }
@@ -167,10 +194,9 @@ impl Fibers {
     /// an entry inside a neighbouring capsule of the same strand (at the joint, where they
     /// overlap) crosses no surface; only a ray that is already inside the fiber makes one.
     fn enter(&self, o: DVec3, d: DVec3, slot: usize) -> Option<f64> {
-        let c = &self.capsules[slot];
-        let t = enter_capsule(o, d, c, Self::T_MIN)?;
+        let t = enter_capsule(o, d, &self.capsule(slot), Self::T_MIN)?;
         let p = o + t * d;
-        let interior = c.neighbours.iter().any(|&n| n != NONE && inside_capsule(p, &self.capsules[n as usize]));
+        let interior = self.neighbours[slot].iter().any(|&n| n != NONE && inside_capsule(p, &self.capsule(n as usize)));
         (!interior).then_some(t)
     }
 
@@ -198,7 +224,7 @@ impl Fibers {
         if hit.primitive_id == obvhs::ray::INVALID_ID {
             return None;
         }
-        let c = &self.capsules[hit.primitive_id as usize];
+        let c = &self.capsule(hit.primitive_id as usize);
         let p = o + best * d;
         let u = (c.b - c.a).normalize();
         let s = (p - c.a).dot(u).clamp(0.0, (c.b - c.a).length());

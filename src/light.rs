@@ -1,8 +1,13 @@
 //! Light sources: an environment (constant, or a lat-long map with importance sampling) and a sun.
 //!
 //! World frame: +Z is up. Lat-long maps follow Blender's Z-up convention, so HDRIs look the same
-//! as there: texel column u = atan2(d.y, -d.x) / 2pi + 1/2, row from the top at elevation +pi/2
-//! to the bottom at -pi/2. `rotation` turns the map about +Z (degrees, counter-clockwise from above).
+//! as there: texel column u = 1/2 - atan2(d.y, d.x) / 2pi (the center column looks toward +X),
+//! row from the top at elevation +pi/2 to the bottom at -pi/2. `rotation` (degrees) turns the
+//! lookup direction about +Z, as Blender's Mapping node does.
+//!
+//! Next-event estimation samples one light per shading point (`Lights::sample`): with a sun and an
+//! environment, each is picked with a probability from their irradiance, so a
+//! vertex costs one shadow ray instead of two.
 
 use anyhow::{Context, Result, anyhow, bail};
 use glam::DVec3;
@@ -54,6 +59,48 @@ pub struct Sun {
 pub struct Lights {
     pub environment: Option<Environment>,
     pub sun: Option<Sun>,
+    /// Probability that [`Lights::sample`] samples the environment rather than the sun.
+    env_share: f64,
+}
+
+impl Lights {
+    /// With both lights, next-event estimation picks the environment with a probability
+    /// proportional to its irradiance estimate against the sun's, kept within [1/4, 3/4] so that
+    /// neither is starved where the other is shadowed (measured: README, "Speed of the path tracer").
+    pub fn new(environment: Option<Environment>, sun: Option<Sun>) -> Lights {
+        let env_share = match (&environment, &sun) {
+            (Some(env), Some(sun)) => {
+                let (e, s) = (env.irradiance(), sun.irradiance.luminance());
+                if e + s > 0.0 { (e / (e + s)).clamp(0.25, 0.75) } else { 0.5 }
+            }
+            (Some(_), None) => 1.0,
+            _ => 0.0,
+        };
+        Lights { environment, sun, env_share }
+    }
+
+    /// One light sample for next-event estimation; its pdf includes the probability of picking
+    /// that light. A random number picks the light only when there are two.
+    pub fn sample(&self, rng: &mut impl rand::Rng) -> Option<LightSample> {
+        let pick_env = match (&self.environment, &self.sun) {
+            (Some(_), Some(_)) => rng.random::<f64>() < self.env_share,
+            (env, _) => env.is_some(),
+        };
+        let (s, p) = match (pick_env, &self.environment, &self.sun) {
+            (true, Some(env), _) => (env.sample(rng.random())?, self.env_share),
+            (false, _, Some(sun)) => (sun.sample(rng.random()), 1.0 - self.env_share),
+            _ => return None,
+        };
+        Some(LightSample { pdf: s.pdf * p, ..s })
+    }
+
+    /// Densities with which [`Lights::sample`] draws `d` from the environment and from the sun,
+    /// for weighting directions that reach them by another sampler.
+    pub fn pdfs(&self, d: DVec3) -> (f64, f64) {
+        let env = self.environment.as_ref().map_or(0.0, |e| self.env_share * e.pdf(d));
+        let sun = self.sun.as_ref().map_or(0.0, |s| (1.0 - self.env_share) * s.pdf(d));
+        (env, sun)
+    }
 }
 
 /// Index of the CDF interval containing `u`, and `u` rescaled to [0, 1) within it.
@@ -190,6 +237,16 @@ impl EnvMap {
 }
 
 impl Environment {
+    /// Irradiance (luminance) it delivers on average to a surface: pi times its mean radiance.
+    fn irradiance(&self) -> f64 {
+        match self {
+            Environment::Constant(c) => PI * c.luminance(),
+            // `total` sums luminance x cos(elevation) over texels of solid angle
+            // (2 pi / width)(pi / height) cos(elevation); the sphere is 4 pi.
+            Environment::Map(m) => PI * m.total * 2.0 * PI * PI / (m.width * m.height) as f64 / (4.0 * PI),
+        }
+    }
+
     pub fn radiance(&self, d: DVec3) -> Rgb {
         match self {
             Environment::Constant(c) => *c,
@@ -327,6 +384,29 @@ mod tests {
         // Mapping node): the direction that reads the center column is then -Y.
         let turned = EnvMap::new(4, 2, vec![Rgb::ONE; 8], 90.0);
         assert!((turned.direction(0.5, 0.5) - DVec3::NEG_Y).length() < 1e-12);
+    }
+
+    #[test]
+    fn picking_one_light_estimates_both() {
+        // The mean of L / pdf over Lights::sample is the integral of all radiance over the
+        // sphere: 4 pi c for a constant sky plus irradiance x solid angle / (pi sin^2) for the disc.
+        use rand::SeedableRng;
+        let sun =
+            Sun { direction: DVec3::new(0.2, 1.0, 0.35).normalize(), irradiance: Rgb::splat(3.0), half_angle: 0.1 };
+        let want = 4.0 * PI * 0.05 + 3.0 * sun.solid_angle() / (PI * 0.1f64.sin().powi(2));
+        let lights = Lights::new(Some(Environment::Constant(Rgb::splat(0.05))), Some(sun));
+        assert!(lights.env_share == 0.25, "a dim sky gets the floor share, got {}", lights.env_share);
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        let m = 400_000;
+        let estimate =
+            (0..m).filter_map(|_| lights.sample(&mut rng)).map(|s| s.radiance.0[0] / s.pdf).sum::<f64>() / m as f64;
+        assert!((estimate - want).abs() < 0.01 * want, "{estimate} vs {want}");
+        // The densities other samplers weigh against are those the samples were drawn with.
+        for _ in 0..1000 {
+            let s = lights.sample(&mut rng).unwrap();
+            let (env, sun) = lights.pdfs(s.wi);
+            assert!([env, sun].iter().any(|p| (p - s.pdf).abs() <= 1e-12 * s.pdf), "{} vs {env}, {sun}", s.pdf);
+        }
     }
 
     #[test]

@@ -439,6 +439,6 @@ impl SceneFile {
                 })
             }
         };
-        Ok(Lights { environment, sun })
+        Ok(Lights::new(environment, sun))
     }
 }

@@ -145,10 +145,14 @@ impl FiberModel for Chiang {
     }
 
     fn pdf(&self, wo: DVec3, wi: DVec3, h: f64) -> f64 {
+        self.eval_pdf(wo, wi, h).1
+    }
+
+    fn eval_pdf(&self, wo: DVec3, wi: DVec3, h: f64) -> (Rgb, f64) {
         let inc = self.incidence(wo, h);
         let w = lobe_weights(&inc.ap);
         let d = self.lobe_densities(&inc, wi);
-        (0..=P_MAX).map(|p| w[p] * d[p]).sum()
+        ((0..=P_MAX).map(|p| inc.ap[p] * d[p]).sum(), (0..=P_MAX).map(|p| w[p] * d[p]).sum())
     }
 }
 

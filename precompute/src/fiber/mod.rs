@@ -51,6 +51,11 @@ pub trait FiberModel: Send + Sync {
 
     /// Density per unit solid angle with which [`FiberModel::sample`] draws `wi`.
     fn pdf(&self, wo: DVec3, wi: DVec3, h: f64) -> f64;
+
+    /// `(eval, pdf)` at once, as a light sample needs both: a model can share its per-hit work.
+    fn eval_pdf(&self, wo: DVec3, wi: DVec3, h: f64) -> (Rgb, f64) {
+        (self.eval(wo, wi, h), self.pdf(wo, wi, h))
+    }
 }
 
 /// What dual scattering needs of a fiber model beyond single scattering: its response f_s^G to

@@ -6,7 +6,10 @@
 //! (`DUALHAIR_BPY_PYTHON`, else `.venv-cycles/bin/python`), Blender Cycles path traces each scene
 //! too (tools/cycles_reference.py), in the same run.
 
-use dualhair::cache::Cache;
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::bpy_python;
 use dualhair::camera::Camera;
 use dualhair::fibers::Fibers;
 use dualhair::render_cmd::{DualInputs, render_prepared};
@@ -29,16 +32,6 @@ fn rate(label: &str, count: usize, f: impl Fn() -> usize) {
         count as f64 / s / 1e6,
         100.0 * hits as f64 / count as f64
     );
-}
-
-/// The Python that can `import bpy`, if any (README, "Checking against Blender Cycles").
-fn bpy_python() -> Option<std::path::PathBuf> {
-    let candidate = std::env::var_os("DUALHAIR_BPY_PYTHON")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv-cycles/bin/python"));
-    let works =
-        std::process::Command::new(&candidate).args(["-c", "import bpy"]).output().is_ok_and(|o| o.status.success());
-    works.then_some(candidate)
 }
 
 /// Cycles' path-traced camera samples/s on `file` (M/s): from a render at `spp` and one at 1 spp,
@@ -121,7 +114,7 @@ fn main() {
     });
 
     let root = env!("CARGO_MANIFEST_DIR");
-    let cache = Cache::at(format!("{}/dualhair-cache", env!("CARGO_TARGET_TMPDIR")));
+    let cache = common::cache();
     // Camera samples/s of path, dual with shadow rays and dual with the lookup, in one run: the
     // swatches, and the groom when one is given (brown fiber, courtyard HDRI plus a sun).
     let mut scenes: Vec<(String, SceneFile)> = ["backlit_swatch", "blond", "brown", "black"]

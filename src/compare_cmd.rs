@@ -7,9 +7,10 @@ use anyhow::{Result, bail, ensure};
 use std::path::PathBuf;
 
 /// Compares TEST against REFERENCE over the pixels REFERENCE covers fully (alpha 1). Prints one
-/// JSON object: mean luminance ratio, relative RMSE per pixel and of BLOCK x BLOCK block means
-/// over the blocks REFERENCE covers fully (with the part the images' own noise explains when they carry variance channels, as
-/// `dualhair render --aovs` writes them), and the pixel count.
+/// JSON object: mean luminance of each and their ratio, relative RMSE per pixel and of BLOCK x
+/// BLOCK block means over the blocks REFERENCE covers fully (with the part the images' own noise
+/// explains when they carry variance channels, as `dualhair render --aovs` writes them), and the
+/// pixel count.
 #[derive(clap::Args, Debug)]
 pub struct CompareArgs {
     /// The image under test (EXR with R, G, B, A).
@@ -40,13 +41,14 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     let (pixel_rmse, pixel_noise) =
         (relative_rmse(&test, &reference, &pixels), relative_noise(&test, &reference, &pixels));
     let blocks = block_relative_rmse(&test, &reference, args.block);
+    let (test_mean, reference_mean) = (mean_luminance(&test, &pixels), mean_luminance(&reference, &pixels));
     let report = serde_json::json!({
         "test": args.test,
         "reference": args.reference,
         "pixels": pixels.len(),
-        "test_mean_luminance": mean_luminance(&test, &pixels),
-        "reference_mean_luminance": mean_luminance(&reference, &pixels),
-        "mean_ratio": mean_luminance(&test, &pixels) / mean_luminance(&reference, &pixels),
+        "test_mean_luminance": test_mean,
+        "reference_mean_luminance": reference_mean,
+        "mean_ratio": test_mean / reference_mean,
         "pixel_rel_rmse": pixel_rmse,
         "pixel_rel_noise": pixel_noise,
         "block": args.block,

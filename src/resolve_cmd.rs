@@ -22,15 +22,23 @@ pub struct ResolveArgs {
 
 pub fn run(args: &ResolveArgs) -> Result<()> {
     let file = SceneFile::load(&args.scene)?;
-    let scene = file.build().with_context(|| format!("{}", args.scene.display()))?;
+    // Everything `build` checks, without the BVH, which nothing here needs.
+    let (strands, camera) = (|| {
+        file.check_settings()?;
+        let strands = file.hair()?;
+        let camera = file.camera(&strands)?;
+        file.lights()?;
+        anyhow::Ok((strands, camera))
+    })()
+    .with_context(|| format!("{}", args.scene.display()))?;
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("{}: cannot create the folder", args.output.display()))?;
     let hair_path = args.output.join("hair.hair");
     write_atomically(&hair_path, |tmp| {
         let info = format!("dualhair resolve of {}", args.scene.display());
-        Ok(write_hair(std::io::BufWriter::new(std::fs::File::create(tmp)?), &scene.strands, &info)?)
+        Ok(write_hair(std::io::BufWriter::new(std::fs::File::create(tmp)?), &strands, &info)?)
     })?;
-    let (position, look_at, up) = scene.camera.orientation();
+    let (position, look_at, up) = camera.orientation();
     let mut resolved = file.clone();
     resolved.hair = HairSpec {
         file: Some(PathBuf::from("hair.hair")),
@@ -40,7 +48,7 @@ pub fn run(args: &ResolveArgs) -> Result<()> {
         translate: [0.0; 3],
         radius: None,
     };
-    resolved.fiber.absorption = Absorption::SigmaA(scene.fiber.sigma_a().0);
+    resolved.fiber.absorption = Absorption::SigmaA(file.fiber.sigma_a().0);
     resolved.camera = CameraSpec {
         position: Some(position.to_array()),
         look_at: Some(look_at.to_array()),

@@ -318,6 +318,25 @@ impl SceneFile {
     /// Checks every value and builds the scene: loads or generates the hair, builds the BVH,
     /// loads the environment map and frames the camera.
     pub fn build(&self) -> Result<Scene> {
+        self.check_settings()?;
+        let strands = self.hair()?;
+        let camera = self.camera(&strands)?;
+        let lights = self.lights()?;
+        let fibers = Fibers::new(&strands);
+        Ok(Scene {
+            strands,
+            fibers,
+            fiber: self.fiber,
+            camera,
+            lights,
+            render: self.render.clone(),
+            dual: self.dual.clone(),
+        })
+    }
+
+    /// Checks the render, fiber and dual settings (the hair, camera and lights are checked as
+    /// they are built).
+    pub fn check_settings(&self) -> Result<()> {
         let r = &self.render;
         ensure!(r.spp >= 1, "render.spp must be at least 1, got {}", r.spp);
         ensure!(r.max_depth >= 1, "render.max_depth must be at least 1, got {}", r.max_depth);
@@ -337,19 +356,7 @@ impl SceneFile {
         if let Some(s) = d.voxel_size {
             ensure!(s.is_finite() && s > 0.0, "dual.voxel_size must be finite and > 0, got {s}");
         }
-        let strands = self.hair()?;
-        let camera = self.camera(&strands)?;
-        let lights = self.lights()?;
-        let fibers = Fibers::new(&strands);
-        Ok(Scene {
-            strands,
-            fibers,
-            fiber: self.fiber,
-            camera,
-            lights,
-            render: self.render.clone(),
-            dual: self.dual.clone(),
-        })
+        Ok(())
     }
 
     /// Loads or generates the hair and applies its transform.
@@ -380,7 +387,8 @@ impl SceneFile {
         Ok(strands)
     }
 
-    fn camera(&self, strands: &Strands) -> Result<Camera> {
+    /// The camera: as given, or framing `strands`.
+    pub fn camera(&self, strands: &Strands) -> Result<Camera> {
         let c = &self.camera;
         ensure!(c.fov > 0.0 && c.fov < 180.0, "camera.fov must be in (0, 180) degrees, got {}", c.fov);
         ensure!((1..=16384).contains(&c.width), "camera.width must be in 1..=16384, got {}", c.width);
@@ -404,7 +412,8 @@ impl SceneFile {
         }
     }
 
-    fn lights(&self) -> Result<Lights> {
+    /// The lights, with the environment map loaded.
+    pub fn lights(&self) -> Result<Lights> {
         let environment = match &self.lights.environment {
             None => None,
             Some(e) => {

@@ -5,19 +5,11 @@
 
 use dualhair::compare::{hair_pixels, mean_luminance, relative_rmse};
 use dualhair::film::Film;
-use std::path::{Path, PathBuf};
 use std::process::Command;
 
-const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+mod common;
 
-/// The Python that can `import bpy`, if any.
-fn bpy_python() -> Option<PathBuf> {
-    let candidate = std::env::var_os("DUALHAIR_BPY_PYTHON")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(ROOT).join(".venv-cycles/bin/python"));
-    let works = Command::new(&candidate).args(["-c", "import bpy, numpy"]).output().is_ok_and(|o| o.status.success());
-    works.then_some(candidate)
-}
+use common::{ROOT, bpy_python};
 
 /// Renders `json` (a scene) with dualhair's path tracer and with Cycles, at the same spp and
 /// seed; returns (dualhair, Cycles), or None when bpy is missing.

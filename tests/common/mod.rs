@@ -6,7 +6,8 @@ use dualhair::cache::Cache;
 use dualhair::film::Film;
 use dualhair::render_cmd::render_scene;
 use dualhair::scene::SceneFile;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::process::Command;
 
 pub const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
@@ -27,4 +28,15 @@ pub fn bundled(name: &str, size: usize, spp: u32) -> SceneFile {
 /// Renders a scene file with its own settings.
 pub fn render(file: &SceneFile) -> Film {
     render_scene(&file.build().unwrap(), &cache(), false).unwrap()
+}
+
+/// The Python that can import bpy and numpy (tools/cycles_reference.py needs both), if any:
+/// `DUALHAIR_BPY_PYTHON`, else `.venv-cycles/bin/python` in the repository (README, "Checking
+/// against Blender Cycles").
+pub fn bpy_python() -> Option<PathBuf> {
+    let candidate = std::env::var_os("DUALHAIR_BPY_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(ROOT).join(".venv-cycles/bin/python"));
+    let works = Command::new(&candidate).args(["-c", "import bpy, numpy"]).output().is_ok_and(|o| o.status.success());
+    works.then_some(candidate)
 }

@@ -1,6 +1,7 @@
 //! Renderer benchmark: BVH build time and ray rates on a groom, then camera samples/s of `path`,
 //! `dual` with shadow rays and `dual` with the forward-transmittance lookup (and the lookup's
-//! build time and memory) on the bundled swatches and, given one, the groom.
+//! build time and memory) on the bundled swatches and, given one, the groom; and the samples/s of
+//! camera rays alone, the ceiling of any integrator that traces one camera ray per sample.
 //! `cargo bench --bench render -- [HAIR_FILE]`; without a file it uses a generated scalp of 30,000
 //! strands for the ray rates. All threads of the machine are used. With a Python that has `bpy`
 //! (`DUALHAIR_BPY_PYTHON`, else `.venv-cycles/bin/python`), Blender Cycles path traces each scene
@@ -12,10 +13,13 @@ mod common;
 use common::bpy_python;
 use dualhair::camera::Camera;
 use dualhair::fibers::Fibers;
+use dualhair::integrator::{CameraSample, Integrator};
+use dualhair::render::render;
 use dualhair::render_cmd::{DualInputs, render_prepared};
 use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, OneOrRgb, SceneFile, ShadowMode, SunSpec};
 use dualhair::transmittance::ForwardLookup;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
+use precompute::spectrum::Rgb;
 use precompute::strands::{Generator, Scalp, read_hair};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -57,6 +61,17 @@ fn cycles_rate(python: &Path, file: &SceneFile, spp: u32) -> f64 {
     };
     let (one, many) = (seconds(1), seconds(spp));
     (file.camera.width * file.camera.height * (spp - 1) as usize) as f64 / (many - one) / 1e6
+}
+
+/// Camera rays and nothing else: the samples/s that no integrator with one camera ray per sample
+/// (as `dual`) can pass, whatever its shading costs.
+struct CameraRaysAlone<'a>(&'a Fibers);
+
+impl Integrator for CameraRaysAlone<'_> {
+    fn radiance(&self, origin: Vec3, dir: DVec3, _: &mut impl Rng) -> CameraSample {
+        let hit = self.0.closest_hit(origin, dir.as_vec3(), f32::INFINITY);
+        CameraSample { radiance: Rgb::ZERO, hit_hair: hit.is_some(), terms: [Rgb::ZERO; 4] }
+    }
 }
 
 fn main() {
@@ -141,9 +156,9 @@ fn main() {
         println!("(no Python with bpy: Cycles is not measured)");
     }
     println!(
-        "| scene | path | dual (rays) | dual (lookup) | lookup / path | lookup / rays | lookup build | lookup memory | Cycles path | path / Cycles |"
+        "| scene | path | dual (rays) | dual (lookup) | lookup / path | lookup / rays | camera rays alone / path | lookup build | lookup memory | Cycles path | path / Cycles |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for (name, mut file) in scenes {
         file.render.spp = spp;
         let mut rates = Vec::new();
@@ -172,16 +187,22 @@ fn main() {
             render_prepared(&scene, inputs.as_ref(), false).unwrap();
             rates.push(samples as f64 / start.elapsed().as_secs_f64() / 1e6);
         }
+        let scene = file.build().unwrap();
+        let samples = scene.camera.width * scene.camera.height * spp as usize;
+        let start = Instant::now();
+        render(&scene.camera, &CameraRaysAlone(&scene.fibers), spp, scene.render.seed, false, false);
+        let alone = samples as f64 / start.elapsed().as_secs_f64() / 1e6;
         // Cycles at 4x the spp: its per-sample time is the difference of two renders.
         file.render.integrator = IntegratorKind::Path;
         let cycles = python.as_deref().map(|p| cycles_rate(p, &file, 4 * spp));
         println!(
-            "| {name} | {:.3} M/s | {:.3} M/s | {:.3} M/s | {:.1}x | {:.1}x | {:.1} s | {:.1} MB | {} | {} |",
+            "| {name} | {:.3} M/s | {:.3} M/s | {:.3} M/s | {:.1}x | {:.1}x | {:.1}x | {:.1} s | {:.1} MB | {} | {} |",
             rates[0],
             rates[1],
             rates[2],
             rates[2] / rates[0],
             rates[2] / rates[1],
+            alone / rates[0],
             build.0,
             build.1 as f64 / 1e6,
             cycles.map_or("-".into(), |c| format!("{c:.3} M/s")),

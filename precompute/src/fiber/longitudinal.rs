@@ -19,13 +19,16 @@ pub fn variance_from_beta_m(beta_m: f64) -> f64 {
 #[derive(Clone, Copy, Debug)]
 pub struct Longitudinal {
     v: f64,
-    /// ln(v (1 - e^(-2/v))) = ln(2 v sinh(1/v)) - 1/v.
-    log_norm: f64,
+    /// 1 / (v (1 - e^(-2/v))) = e^(-1/v) / (2 v sinh(1/v)): the normalization with the e^(1/v)
+    /// that would overflow for small v taken out (finite for every v > 0).
+    norm: f64,
 }
 
 impl Longitudinal {
     pub fn new(v: f64) -> Longitudinal {
-        Longitudinal { v, log_norm: (v * -(-2.0 / v).exp_m1()).ln() }
+        // Below v = 0.05, e^(-2/v) < 5e-18 and 1 - e^(-2/v) rounds to 1: expm1 can be skipped.
+        let tail = if v < 0.05 { 1.0 } else { -(-2.0 / v).exp_m1() };
+        Longitudinal { v, norm: 1.0 / (v * tail) }
     }
 
     /// The same lobe widened by an extra variance (variances add under convolution).
@@ -36,13 +39,13 @@ impl Longitudinal {
     /// M_p from the sines and cosines of both inclinations, finite for every `v > 0`.
     ///
     /// With a = cos_o cos_i / v and b = sin_o sin_i / v:
-    /// M_p = e^-|a| I0(a) * exp(|a| - b - 1/v - ln(v (1 - e^(-2/v)))), where |a| - b - 1/v <= 0.
-    /// This replaces pbrt's two-branch formula (seed 002 `Mp`) with one that neither overflows
-    /// for tiny v nor loses precision for large v.
+    /// M_p = e^-|a| I0(a) * exp(|a| - b - 1/v) / (v (1 - e^(-2/v))), where |a| - b - 1/v <= 0,
+    /// so the exponential is at most 1. This replaces pbrt's two-branch formula (seed 002 `Mp`)
+    /// with one that neither overflows for tiny v nor loses precision for large v.
     pub fn eval(&self, cos_i: f64, sin_i: f64, cos_o: f64, sin_o: f64) -> f64 {
         let exponent = ((cos_i * cos_o).abs() - sin_i * sin_o - 1.0) / self.v;
         let (m, e) = i0e_parts(cos_i * cos_o / self.v);
-        m * (exponent - self.log_norm + e).exp()
+        m * (exponent + e).exp() * self.norm
     }
 
     /// Samples `(sin theta_i, cos theta_i)` with density M_p(theta_o, .) cos(theta_i) from two

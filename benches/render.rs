@@ -16,6 +16,7 @@ use dualhair::fibers::Fibers;
 use dualhair::integrator::{CameraSample, Integrator};
 use dualhair::render::render;
 use dualhair::render_cmd::{DualInputs, render_prepared};
+use dualhair::sampler::Sampler;
 use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, OneOrRgb, SceneFile, ShadowMode, SunSpec};
 use dualhair::transmittance::ForwardLookup;
 use glam::{DVec3, Vec3};
@@ -68,7 +69,7 @@ fn cycles_rate(python: &Path, file: &SceneFile, spp: u32) -> f64 {
 struct CameraRaysAlone<'a>(&'a Fibers);
 
 impl Integrator for CameraRaysAlone<'_> {
-    fn radiance(&self, origin: Vec3, dir: DVec3, _: &mut impl Rng) -> CameraSample {
+    fn radiance(&self, origin: Vec3, dir: DVec3, _: &mut impl Sampler) -> CameraSample {
         let hit = self.0.closest_hit(origin, dir.as_vec3(), f32::INFINITY);
         CameraSample { radiance: Rgb::ZERO, hit_hair: hit.is_some(), terms: [Rgb::ZERO; 4] }
     }

@@ -55,6 +55,7 @@ use crate::integrator::{
     spawn_point,
 };
 use crate::light::{LightSample, Lights};
+use crate::sampler::Sampler;
 use crate::scene::Sampling;
 use crate::transmittance::ForwardLookup;
 use glam::{DVec3, Vec3};
@@ -63,7 +64,6 @@ use precompute::density::DensityGrid;
 use precompute::fiber::{Longitudinal, SpreadScattering};
 use precompute::spectrum::Rgb;
 use precompute::tables::{Quantity, Tables};
-use rand::Rng;
 use serde::Deserialize;
 use std::f64::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 
@@ -232,6 +232,8 @@ pub struct DualScattering<'a> {
     pub model: DualModel,
     pub sampling: Sampling,
     pub shadows: Shadows<'a>,
+    /// Light samples (each with a sample of F's sampler) per camera hit, stratified together.
+    pub light_samples: u32,
 }
 
 /// How `dual` finds the fibers between a shading point and a light (`dual.shadows`).
@@ -415,7 +417,8 @@ impl<'a> Shading<'a> {
     fn sample(&self, u: [f64; 4]) -> Option<(DVec3, f64)> {
         match self.dual.sampling {
             Sampling::Light => None,
-            Sampling::Uniform => Some((uniform_sphere([u[0], u[1]]), 1.0 / SPHERE)),
+            // (u[1], u[2]) is the stratified pair of `Sampler::get_4d`.
+            Sampling::Uniform => Some((uniform_sphere([u[1], u[2]]), 1.0 / SPHERE)),
             Sampling::Importance => {
                 let (k, u0) = pick(&[1.0 - self.uniform, self.uniform], u[0]);
                 if k == 0 {
@@ -423,7 +426,7 @@ impl<'a> Shading<'a> {
                     let s = self.dual.fiber.sample(self.wo, self.h, [u0, u[1], u[2], u[3]])?;
                     Some((s.wi, self.mixture_pdf(s.pdf)))
                 } else {
-                    let wi = uniform_sphere([u0, u[1]]);
+                    let wi = uniform_sphere([u[1], u[2]]);
                     Some((wi, self.pdf(wi)))
                 }
             }
@@ -460,30 +463,36 @@ impl<'a> Shading<'a> {
 }
 
 impl Integrator for DualScattering<'_> {
-    fn radiance(&self, origin: Vec3, dir: DVec3, rng: &mut impl Rng) -> CameraSample {
+    fn radiance(&self, origin: Vec3, dir: DVec3, sampler: &mut impl Sampler) -> CameraSample {
         let Some(hit) = self.fibers.closest_hit(origin, dir.as_vec3(), f32::INFINITY) else {
             return background(self.lights, dir);
         };
         let shading = Shading::new(self, &hit, dir);
-        // The same random numbers in the same order as `single`, so d_f = d_b = 0 reproduces it.
         let (mut radiance, mut terms) = (Rgb::ZERO, [Rgb::ZERO; 4]);
-        sample_lights(self.lights, rng, |s| shading.light(s, &mut radiance, &mut terms));
-        // Drawn even for light sampling alone, so that every strategy's pixel streams stay in step
-        // (renders with the same seed then differ only through the strategy).
-        let u: [f64; 4] = rng.random();
-        if let Some((wi, pdf)) = shading.sample(u) {
-            if pdf > 0.0 {
-                let d = shading.frame.to_world(wi).normalize();
-                let weight = seen_lights(self.lights, d, pdf) / pdf;
-                // No light seen that way (a sun-only scene, mostly): F would be multiplied by 0.
-                if weight.0.iter().any(|&w| w != 0.0) {
-                    let split = shading.f(wi, d);
-                    radiance += split.total() * weight;
-                    split.add_to(&mut terms, weight);
+        // `light_samples` sub-samples share the camera ray and the per-hit state. With one, the
+        // same random numbers in the same order as `single`: d_f = d_b = 0 reproduces it.
+        let k = self.light_samples;
+        sampler.split(k, &mut |sampler| {
+            sample_lights(self.lights, sampler, |s| shading.light(s, &mut radiance, &mut terms));
+            // Drawn even for light sampling alone, so that every strategy's requests stay in step
+            // (renders with the same seed then differ only through the strategy).
+            let u = sampler.get_4d();
+            if let Some((wi, pdf)) = shading.sample(u) {
+                if pdf > 0.0 {
+                    let d = shading.frame.to_world(wi).normalize();
+                    let weight = seen_lights(self.lights, d, pdf) / pdf;
+                    // No light seen that way (a sun-only scene, mostly): F would be multiplied by 0.
+                    if weight.0.iter().any(|&w| w != 0.0) {
+                        let split = shading.f(wi, d);
+                        radiance += split.total() * weight;
+                        split.add_to(&mut terms, weight);
+                    }
                 }
             }
-        }
-        CameraSample { radiance, hit_hair: true, terms }
+        });
+        let share = 1.0 / k as f64;
+        terms.iter_mut().for_each(|t| *t = *t * share);
+        CameraSample { radiance: radiance * share, hit_hair: true, terms }
     }
 }
 

@@ -7,15 +7,15 @@
 
 use crate::fibers::{Fibers, Hit};
 use crate::light::{LightSample, Lights};
+use crate::sampler::Sampler;
 use glam::{DVec3, Vec3};
 use precompute::conventions::h_offset;
 use precompute::fiber::FiberModel;
 use precompute::spectrum::Rgb;
-use rand::Rng;
 
 /// An estimator of the radiance arriving along camera rays.
 pub trait Integrator: Sync {
-    fn radiance(&self, origin: Vec3, dir: DVec3, rng: &mut impl Rng) -> CameraSample;
+    fn radiance(&self, origin: Vec3, dir: DVec3, sampler: &mut impl Sampler) -> CameraSample;
 }
 
 /// Local fiber frame at a hit: x along the tangent (conventions module).
@@ -48,8 +48,8 @@ pub(crate) fn power_heuristic(a: f64, b: f64) -> f64 {
 /// Next-event estimation: one light sample ([`Lights::sample`]), handed to `each`. Every
 /// integrator draws its light samples here, so all of them use the same random numbers in the
 /// same order (`dual` with d_f = d_b = 0 reproduces `single` exactly).
-pub(crate) fn sample_lights(lights: &Lights, rng: &mut impl Rng, mut each: impl FnMut(&LightSample)) {
-    if let Some(s) = lights.sample(rng) {
+pub(crate) fn sample_lights(lights: &Lights, sampler: &mut impl Sampler, mut each: impl FnMut(&LightSample)) {
+    if let Some(s) = lights.sample(sampler) {
         each(&s);
     }
 }
@@ -187,7 +187,7 @@ pub(crate) fn background(lights: &Lights, dir: DVec3) -> CameraSample {
 }
 
 impl Integrator for PathTracer<'_> {
-    fn radiance(&self, origin: Vec3, dir: DVec3, rng: &mut impl Rng) -> CameraSample {
+    fn radiance(&self, origin: Vec3, dir: DVec3, sampler: &mut impl Sampler) -> CameraSample {
         let Some(mut hit) = self.fibers.closest_hit(origin, dir.as_vec3(), f32::INFINITY) else {
             return background(self.lights, dir);
         };
@@ -201,7 +201,7 @@ impl Integrator for PathTracer<'_> {
             // Backward events counting this vertex's, for light arriving from `wi`.
             let events = |back: bool| backward + (depth > 1 && back) as u32;
 
-            sample_lights(self.lights, rng, |s| {
+            sample_lights(self.lights, sampler, |s| {
                 let (l, back) = self.light_contribution(s, &frame, wo, h, from);
                 let l = throughput * l;
                 radiance += l;
@@ -209,7 +209,7 @@ impl Integrator for PathTracer<'_> {
             });
 
             // Continue by sampling the fiber.
-            let Some(s) = self.fiber.sample(wo, h, rng.random()) else { break };
+            let Some(s) = self.fiber.sample(wo, h, sampler.get_4d()) else { break };
             throughput = throughput * s.weight();
             // Russian roulette before the ray from the second vertex on (a path that ends traces
             // no more rays), compensated by 1 / (survival probability). Started at the third
@@ -217,7 +217,7 @@ impl Integrator for PathTracer<'_> {
             // the same within measurement (README, "Speed of the path tracer").
             if depth >= 2 && depth < self.max_depth {
                 let survive = throughput.0.iter().copied().fold(0.0, f64::max).min(0.95);
-                if rng.random::<f64>() >= survive {
+                if sampler.get_1d() >= survive {
                     break;
                 }
                 throughput = throughput / survive;

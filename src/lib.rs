@@ -23,6 +23,7 @@ pub mod precompute_cmd;
 pub mod render;
 pub mod render_cmd;
 pub mod resolve_cmd;
+pub mod sampler;
 pub mod scene;
 pub mod tables_chart;
 pub mod transmittance;

@@ -9,6 +9,7 @@
 //! environment, each is picked with a probability from their irradiance, so a
 //! vertex costs one shadow ray instead of two.
 
+use crate::sampler::Sampler;
 use anyhow::{Context, Result, anyhow, bail};
 use glam::DVec3;
 use precompute::conventions::{SPHERE, uniform_sphere};
@@ -132,14 +133,14 @@ impl Lights {
 
     /// One light sample for next-event estimation; its pdf includes the probability of picking
     /// that light. A random number picks the light only when there are two.
-    pub fn sample(&self, rng: &mut impl rand::Rng) -> Option<LightSample> {
+    pub fn sample(&self, sampler: &mut impl Sampler) -> Option<LightSample> {
         let pick_env = match (&self.environment, &self.sun) {
-            (Some(_), Some(_)) => rng.random::<f64>() < self.env_share,
+            (Some(_), Some(_)) => sampler.get_1d() < self.env_share,
             (env, _) => env.is_some(),
         };
         let (s, p) = match (pick_env, &self.environment, &self.sun) {
-            (true, Some(env), _) => (env.sample(rng.random())?, self.env_share),
-            (false, _, Some(sun)) => (sun.sample(rng.random()), 1.0 - self.env_share),
+            (true, Some(env), _) => (env.sample(sampler.get_2d())?, self.env_share),
+            (false, _, Some(sun)) => (sun.sample(sampler.get_2d()), 1.0 - self.env_share),
             _ => return None,
         };
         Some(LightSample { pdf: s.pdf * p, ..s })

@@ -52,6 +52,9 @@ pub struct RenderArgs {
     /// Shadows in the dual integrator (default: the scene's, else lookup).
     #[arg(long, value_enum)]
     pub shadows: Option<ShadowMode>,
+    /// Light samples per camera hit (dual integrator; default: the scene's, else 1).
+    #[arg(long)]
+    pub light_samples: Option<u32>,
     /// Image width in pixels.
     #[arg(long)]
     pub width: Option<usize>,
@@ -99,6 +102,7 @@ pub fn scene_file(args: &RenderArgs) -> Result<SceneFile> {
     file.dual.d_b = args.d_b.unwrap_or(file.dual.d_b);
     file.dual.model = args.model.unwrap_or(file.dual.model);
     file.dual.shadows = args.shadows.unwrap_or(file.dual.shadows);
+    file.dual.light_samples = args.light_samples.unwrap_or(file.dual.light_samples);
     file.camera.width = args.width.unwrap_or(file.camera.width);
     file.camera.height = args.height.unwrap_or(file.camera.height);
     Ok(file)
@@ -180,6 +184,7 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
                 Some(lookup) => Shadows::Lookup(lookup),
                 None => Shadows::Rays,
             },
+            light_samples: d.light_samples,
         };
         return Ok(render(&scene.camera, &dual, spp, seed, progress, scene.render.terms));
     }

@@ -181,6 +181,9 @@ pub struct DualSpec {
     pub shadows: ShadowMode,
     /// The lookup's resolutions.
     pub lookup: LookupSettings,
+    /// Direction samples per camera hit, each a light sample and a sample of F's own sampler,
+    /// stratified together: one camera ray and the fiber's per-hit state serve them all.
+    pub light_samples: u32,
 }
 
 /// How `dual` finds what lies between a shading point and a light (see [`crate::dual::Shadows`]).
@@ -203,6 +206,7 @@ impl Default for DualSpec {
             density_grid: None,
             shadows: ShadowMode::Lookup,
             lookup: LookupSettings::default(),
+            light_samples: 1,
         }
     }
 }
@@ -350,6 +354,14 @@ impl SceneFile {
             ensure!((0.0..=1.0).contains(&v), "{name} must be in [0, 1], got {v}");
         }
         d.lookup.validate()?;
+        ensure!((1..=256).contains(&d.light_samples), "dual.light_samples must be in 1..=256, got {}", d.light_samples);
+        // Sub-sample j of sample i reads point i k + j of 32-bit sequences (sampler.rs).
+        ensure!(
+            r.spp as u64 * d.light_samples as u64 <= 1 << 32,
+            "render.spp x dual.light_samples must be at most 2^32, got {} x {}",
+            r.spp,
+            d.light_samples
+        );
         if d.shadows == ShadowMode::Lookup && d.model.transmittance_kind() == Transmittance::Fibers {
             bail!("dual.model `fibers` counts the fibers along each shadow ray, so it needs dual.shadows \"rays\"");
         }

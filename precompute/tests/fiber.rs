@@ -38,8 +38,9 @@ fn furnace_grid() -> Vec<(f64, f64, f64, DVec3)> {
 }
 
 /// Randomized quasi-Monte Carlo estimate of the albedo with uniformly sampled (h, wi): the R3
-/// Kronecker sequence (Roberts 2018) over (h, u0, u1) under 8 independent random shifts. Doubles
-/// the count until the shifts' standard error is below 0.2% (or 2^23 points per shift).
+/// Kronecker sequence (Roberts 2018) over (h, u1, u2) (the uniform sampler's pair) under 8
+/// independent random shifts. Doubles the count until the shifts' standard error is below 0.2%
+/// (or 2^23 points per shift).
 /// Returns (mean, standard error, points per shift).
 fn uniform_furnace(model: &dyn FiberModel, wo: DVec3, seed: u64) -> (f64, f64, usize) {
     let g = 1.220_744_084_605_759_5_f64; // the real root of x^4 = x + 1 (R3's generator)
@@ -52,7 +53,7 @@ fn uniform_furnace(model: &dyn FiberModel, wo: DVec3, seed: u64) -> (f64, f64, u
         for (shift, sum) in shifts.iter().zip(sums.iter_mut()) {
             for i in done..n {
                 let x: [f64; 3] = std::array::from_fn(|d| (shift[d] + step[d] * i as f64).fract());
-                *sum += model.sample(wo, 2.0 * x[0] - 1.0, [x[1], x[2], 0.0, 0.0]).unwrap().weight().0[1];
+                *sum += model.sample(wo, 2.0 * x[0] - 1.0, [0.0, x[1], x[2], 0.0]).unwrap().weight().0[1];
             }
         }
         done = n;

@@ -47,6 +47,9 @@ pub trait FiberModel: Send + Sync {
     fn eval(&self, wo: DVec3, wi: DVec3, h: f64) -> Rgb;
 
     /// Draws `wi` from four uniform numbers in [0, 1); `None` if no direction can be drawn.
+    /// Renderers stratify (u[1], u[2]) as one pair and (u[0], u[3]) as another: a sampler draws
+    /// its main two-dimensional choice (the longitudinal cone, a point on the sphere) from the
+    /// first pair.
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<FiberSample>;
 
     /// Density per unit solid angle with which [`FiberModel::sample`] draws `wi`.
@@ -86,7 +89,7 @@ impl<M: FiberModel> FiberModel for UniformSampled<M> {
     }
 
     fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<FiberSample> {
-        let wi = crate::conventions::uniform_sphere([u[0], u[1]]);
+        let wi = crate::conventions::uniform_sphere([u[1], u[2]]);
         Some(FiberSample { wi, value: self.0.eval(wo, wi, h), pdf: 1.0 / SPHERE })
     }
 

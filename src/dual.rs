@@ -17,11 +17,11 @@
 //! or the measured default (`two_stream`): T the mean of a_f^N over a Poisson count N of mean n
 //! given N >= 1, n' = E[N | N >= 1], k = 1, and A_b = a_f R with R the Kubelka-Munk reflectance of
 //! the hair behind the fiber. Every F here is, like
-//! [`precompute::fiber::FiberModel::eval`], the projected value f |cos theta_i| per unit solid
+//! [`precompute::fiber::FiberHit::eval`], the projected value f |cos theta_i| per unit solid
 //! angle of wi. The pieces:
 //!
 //! - f_s is the fiber model and f_s^G its forward-spread response
-//!   ([`SpreadScattering::eval_spread`]) with every lobe widened by 4 sigma_f^2: the tables' widths
+//!   ([`SpreadHit::eval_spread`]) with every lobe widened by 4 sigma_f^2: the tables' widths
 //!   are of theta_h = (theta + theta_i) / 2, so a variance of the inclination is 4 times theirs.
 //! - f_back = A_b M(theta_i; 2 Delta_b(theta) - theta_o, 4 sigma_b(theta)^2) s_b(phi), with M the
 //!   normalized longitudinal lobe of d'Eon et al. 2011 (a Gaussian of theta_h, centred on Delta_b
@@ -61,7 +61,7 @@ use crate::transmittance::ForwardLookup;
 use glam::{DVec3, Vec3};
 use precompute::conventions::{SPHERE, phi, pick, sin_cos_theta, uniform_sphere, wrap_angle};
 use precompute::density::DensityGrid;
-use precompute::fiber::{Longitudinal, SpreadScattering};
+use precompute::fiber::{FiberHit, FiberModel, Longitudinal, SpreadHit};
 use precompute::spectrum::Rgb;
 use precompute::tables::{Quantity, Tables};
 use serde::Deserialize;
@@ -219,9 +219,10 @@ pub fn predicted_multiple_share(tables: &Tables) -> f64 {
 }
 
 /// The `dual` integrator: the scene, the fiber, its tables and the hair's density grid.
-pub struct DualScattering<'a> {
+pub struct DualScattering<'a, M> {
     pub fibers: &'a Fibers,
-    pub fiber: &'a dyn SpreadScattering,
+    /// The fiber model; its hits give f_s^G too ([`SpreadHit`]).
+    pub fiber: &'a M,
     pub lights: &'a Lights,
     pub tables: &'a Tables,
     pub grid: &'a DensityGrid,
@@ -289,11 +290,12 @@ struct Incoming {
 }
 
 /// F at one fiber hit, with its sampler.
-struct Shading<'a> {
-    dual: &'a DualScattering<'a>,
+struct Shading<'a, M: FiberModel + 'a> {
+    dual: &'a DualScattering<'a, M>,
+    /// The fiber model at this hit (wo and h fixed), for every direction asked about here.
+    fiber: M::Hit<'a>,
     frame: Frame,
-    /// Toward the camera, local frame, with its inclination and azimuth.
-    wo: DVec3,
+    /// The inclination and azimuth of the direction toward the camera (local).
     theta_o: f64,
     phi_o: f64,
     h: f64,
@@ -305,12 +307,16 @@ struct Shading<'a> {
     uniform: f64,
 }
 
-impl<'a> Shading<'a> {
-    fn new(dual: &'a DualScattering<'a>, hit: &Hit, dir: DVec3) -> Shading<'a> {
+impl<'a, M: FiberModel> Shading<'a, M>
+where
+    M::Hit<'a>: SpreadHit,
+{
+    fn new(dual: &'a DualScattering<'a, M>, hit: &Hit, dir: DVec3) -> Shading<'a, M> {
         let (frame, wo, h) = hit_frame(hit, dir);
         let uniform = DEFENSIVE * dual.d_f.max(dual.d_b);
         let (theta_o, phi_o) = (sin_cos_theta(wo).0.asin(), phi(wo));
-        Shading { dual, frame, wo, theta_o, phi_o, h, from: spawn_point(hit), segment: hit.segment, uniform }
+        let fiber = dual.fiber.at(wo, h);
+        Shading { dual, fiber, frame, theta_o, phi_o, h, from: spawn_point(hit), segment: hit.segment, uniform }
     }
 
     /// F(wo, wi) toward the light direction `wi` (local) = `d` (world), split into its terms.
@@ -327,19 +333,19 @@ impl<'a> Shading<'a> {
         };
         let Some((lit, n)) = entry else { return self.f_rays(&inc, d) };
         if lit >= 1.0 {
-            return self.direct(&inc, dual.fiber.eval(self.wo, wi, self.h));
+            return self.direct(&inc, self.fiber.eval(wi));
         }
         if lit <= 0.0 {
-            return self.scatter(&inc, n, |spread| dual.fiber.eval_spread(self.wo, wi, self.h, spread));
+            return self.scatter(&inc, n, |spread| self.fiber.eval_spread(wi, spread));
         }
-        // Partly lit: f_s and f_s^G share the fiber's per-hit state.
+        // Partly lit: f_s and f_s^G share the work of the direction.
         let mut f_s = None;
         let scatter = self.scatter(&inc, n, |spread| {
-            let (direct, spread) = dual.fiber.eval_both(self.wo, wi, self.h, spread);
+            let (direct, spread) = self.fiber.eval_both(wi, spread);
             f_s = Some(direct);
             spread
         });
-        let f_s = f_s.unwrap_or_else(|| dual.fiber.eval(self.wo, wi, self.h));
+        let f_s = f_s.unwrap_or_else(|| self.fiber.eval(wi));
         self.direct(&inc, f_s).scaled(lit).plus(&scatter.scaled(1.0 - lit))
     }
 
@@ -355,10 +361,10 @@ impl<'a> Shading<'a> {
             None => !dual.fibers.occluded(self.from, d.as_vec3(), f32::INFINITY),
         };
         if lit {
-            self.direct(inc, dual.fiber.eval(self.wo, inc.wi, self.h))
+            self.direct(inc, self.fiber.eval(inc.wi))
         } else {
             let n = count.unwrap_or_else(|| dual.grid.fibers_crossed(self.from.as_dvec3(), d, f64::INFINITY));
-            self.scatter(inc, n, |spread| dual.fiber.eval_spread(self.wo, inc.wi, self.h, spread))
+            self.scatter(inc, n, |spread| self.fiber.eval_spread(inc.wi, spread))
         }
     }
 
@@ -423,7 +429,7 @@ impl<'a> Shading<'a> {
                 let (k, u0) = pick(&[1.0 - self.uniform, self.uniform], u[0]);
                 if k == 0 {
                     // The fiber sampler's own density saves evaluating it again.
-                    let s = self.dual.fiber.sample(self.wo, self.h, [u0, u[1], u[2], u[3]])?;
+                    let s = self.fiber.sample([u0, u[1], u[2], u[3]])?;
                     Some((s.wi, self.mixture_pdf(s.pdf)))
                 } else {
                     let wi = uniform_sphere([u[1], u[2]]);
@@ -438,7 +444,7 @@ impl<'a> Shading<'a> {
         match self.dual.sampling {
             Sampling::Light => 0.0,
             Sampling::Uniform => 1.0 / SPHERE,
-            Sampling::Importance => self.mixture_pdf(self.dual.fiber.pdf(self.wo, wi, self.h)),
+            Sampling::Importance => self.mixture_pdf(self.fiber.pdf(wi)),
         }
     }
 
@@ -462,7 +468,10 @@ impl<'a> Shading<'a> {
     }
 }
 
-impl Integrator for DualScattering<'_> {
+impl<M: FiberModel> Integrator for DualScattering<'_, M>
+where
+    for<'h> M::Hit<'h>: SpreadHit,
+{
     fn radiance(&self, origin: Vec3, dir: DVec3, sampler: &mut impl Sampler) -> CameraSample {
         let Some(hit) = self.fibers.closest_hit(origin, dir.as_vec3(), f32::INFINITY) else {
             return background(self.lights, dir);

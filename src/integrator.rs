@@ -10,7 +10,7 @@ use crate::light::{LightSample, Lights};
 use crate::sampler::Sampler;
 use glam::{DVec3, Vec3};
 use precompute::conventions::h_offset;
-use precompute::fiber::FiberModel;
+use precompute::fiber::{FiberHit, FiberModel};
 use precompute::spectrum::Rgb;
 
 /// An estimator of the radiance arriving along camera rays.
@@ -79,9 +79,9 @@ pub(crate) fn spawn_point(hit: &Hit) -> Vec3 {
     hit.point - hit.normal * (0.01 * hit.radius)
 }
 
-pub struct PathTracer<'a> {
+pub struct PathTracer<'a, M> {
     pub fibers: &'a Fibers,
-    pub fiber: &'a dyn FiberModel,
+    pub fiber: &'a M,
     pub lights: &'a Lights,
     /// Number of fiber vertices along a path: 1 is single scattering.
     pub max_depth: u32,
@@ -146,13 +146,20 @@ fn is_backward(wo: DVec3, wi: DVec3) -> bool {
     wo.y * wi.y + wo.z * wi.z > 0.0
 }
 
-impl PathTracer<'_> {
-    /// Radiance carried by a light sample toward a vertex, MIS-weighted against fiber sampling,
-    /// and whether it arrives by a backward event.
-    fn light_contribution(&self, s: &LightSample, frame: &Frame, wo: DVec3, h: f64, from: Vec3) -> (Rgb, bool) {
+impl<M: FiberModel> PathTracer<'_, M> {
+    /// Radiance carried by a light sample toward a vertex where the fiber is `fiber`, MIS-weighted
+    /// against fiber sampling, and whether it arrives by a backward event.
+    fn light_contribution(
+        &self,
+        s: &LightSample,
+        frame: &Frame,
+        wo: DVec3,
+        fiber: &M::Hit<'_>,
+        from: Vec3,
+    ) -> (Rgb, bool) {
         let wi = frame.to_local(s.wi);
         // A delta light needs no density for MIS: no direction sampler can reach it.
-        let (f, pdf) = if s.delta { (self.fiber.eval(wo, wi, h), 0.0) } else { self.fiber.eval_pdf(wo, wi, h) };
+        let (f, pdf) = if s.delta { (fiber.eval(wi), 0.0) } else { fiber.eval_pdf(wi) };
         if f.luminance() <= 0.0 || self.fibers.occluded(from, s.wi.as_vec3(), f32::INFINITY) {
             return (Rgb::ZERO, false);
         }
@@ -186,7 +193,7 @@ pub(crate) fn background(lights: &Lights, dir: DVec3) -> CameraSample {
     CameraSample { radiance, hit_hair: false, terms: [Rgb::ZERO; 4] }
 }
 
-impl Integrator for PathTracer<'_> {
+impl<M: FiberModel> Integrator for PathTracer<'_, M> {
     fn radiance(&self, origin: Vec3, dir: DVec3, sampler: &mut impl Sampler) -> CameraSample {
         let Some(mut hit) = self.fibers.closest_hit(origin, dir.as_vec3(), f32::INFINITY) else {
             return background(self.lights, dir);
@@ -197,19 +204,20 @@ impl Integrator for PathTracer<'_> {
         let mut backward = 0;
         for depth in 1..=self.max_depth {
             let (frame, wo, h) = hit_frame(&hit, dir);
+            let fiber = self.fiber.at(wo, h);
             let from = spawn_point(&hit);
             // Backward events counting this vertex's, for light arriving from `wi`.
             let events = |back: bool| backward + (depth > 1 && back) as u32;
 
             sample_lights(self.lights, sampler, |s| {
-                let (l, back) = self.light_contribution(s, &frame, wo, h, from);
+                let (l, back) = self.light_contribution(s, &frame, wo, &fiber, from);
                 let l = throughput * l;
                 radiance += l;
                 terms[Term::of_path(depth, events(back)) as usize] += l;
             });
 
             // Continue by sampling the fiber.
-            let Some(s) = self.fiber.sample(wo, h, sampler.get_4d()) else { break };
+            let Some(s) = fiber.sample(sampler.get_4d()) else { break };
             throughput = throughput * s.weight();
             // Russian roulette before the ray from the second vertex on (a path that ends traces
             // no more rays), compensated by 1 / (survival probability). Started at the third

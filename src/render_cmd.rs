@@ -194,14 +194,17 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
         IntegratorKind::Dual => bail!("the dual integrator needs its tables and density grid"),
         IntegratorKind::Auto => bail!("`auto` must be resolved to an integrator first (resolve_auto)"),
     };
-    let uniform = UniformSampled(chiang.clone());
-    let fiber: &dyn FiberModel = match scene.render.sampling() {
-        Sampling::Importance => &chiang,
-        Sampling::Uniform => &uniform,
+    match scene.render.sampling() {
+        Sampling::Importance => Ok(path_trace(scene, &chiang, max_depth, progress)),
+        Sampling::Uniform => Ok(path_trace(scene, &UniformSampled(chiang), max_depth, progress)),
         Sampling::Light => bail!("light sampling alone needs the dual integrator"),
-    };
+    }
+}
+
+/// Path traces a built scene with the fiber model `fiber`, at most `max_depth` fiber vertices.
+fn path_trace(scene: &Scene, fiber: &impl FiberModel, max_depth: u32, progress: bool) -> Film {
     let tracer = PathTracer { fibers: &scene.fibers, fiber, lights: &scene.lights, max_depth };
-    Ok(render(&scene.camera, &tracer, spp, seed, progress, scene.render.terms))
+    render(&scene.camera, &tracer, scene.render.spp, scene.render.seed, progress, scene.render.terms)
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {

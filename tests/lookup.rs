@@ -4,7 +4,7 @@
 use dualhair::transmittance::{ForwardLookup, LookupSettings};
 use glam::DVec3;
 use precompute::conventions::{h_offset, uniform_sphere};
-use precompute::fiber::{Chiang, FiberModel};
+use precompute::fiber::{Chiang, FiberHit, FiberModel};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
@@ -55,8 +55,9 @@ fn compare(settings: LookupSettings) -> [(f64, f64); 4] {
                 continue;
             };
             add(0, 1.0, lit, escapes(sun));
+            let fiber = chiang.at(wo, h);
             for _ in 0..16 {
-                if let Some(s) = chiang.sample(wo, h, rng.random()) {
+                if let Some(s) = fiber.sample(rng.random()) {
                     let d = world(s.wi);
                     let (lit, n) = lookup.toward(hit.segment, h, d, s.wi).unwrap();
                     let weight = s.weight().luminance();

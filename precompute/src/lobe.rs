@@ -7,7 +7,7 @@
 //! sampled at pixel centers. Then sum(pixel cos(theta) dtheta dphi) is the fiber's albedo.
 
 use crate::conventions::direction;
-use crate::fiber::FiberModel;
+use crate::fiber::{FiberHit, FiberModel};
 use crate::quadrature::composite;
 use crate::spectrum::Rgb;
 use rayon::prelude::*;
@@ -55,15 +55,22 @@ pub fn h_rule(s: f64, refine: usize) -> Vec<(f64, f64)> {
 }
 
 /// Renders the h-averaged lobe for a light (fixed direction) at inclination `theta`.
-pub fn lobe_image(model: &dyn FiberModel, theta: f64, width: usize, height: usize, h_rule: &[(f64, f64)]) -> LobeImage {
+pub fn lobe_image(
+    model: &impl FiberModel,
+    theta: f64,
+    width: usize,
+    height: usize,
+    h_rule: &[(f64, f64)],
+) -> LobeImage {
     let mut image = LobeImage { width, height, pixels: vec![Rgb::ZERO; width * height] };
     let wo = direction(theta, 0.0);
     let (thetas, phis): (Vec<f64>, Vec<f64>) =
         ((0..height).map(|y| image.theta(y)).collect(), (0..width).map(|x| image.phi(x)).collect());
+    let hits: Vec<_> = h_rule.iter().map(|&(h, w)| (model.at(wo, h), w)).collect();
     image.pixels.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
             let wi = direction(thetas[y], phis[x]);
-            *px = h_rule.iter().map(|&(h, w)| model.eval(wo, wi, h) * w).sum();
+            *px = hits.iter().map(|(hit, w)| hit.eval(wi) * *w).sum();
         }
     });
     image

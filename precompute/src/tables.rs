@@ -40,7 +40,7 @@
 //! one row per theta.
 
 use crate::conventions::direction;
-use crate::fiber::{FiberModel, FiberParams, scale_from_beta_n, variance_from_beta_m};
+use crate::fiber::{FiberHit, FiberModel, FiberParams, scale_from_beta_n, variance_from_beta_m};
 use crate::lobe::h_rule;
 use crate::quadrature::composite;
 use crate::spectrum::Rgb;
@@ -258,13 +258,14 @@ impl Moments {
 
 /// The backward and forward moments for a light at inclination `theta`.
 fn half_moments(
-    model: &dyn FiberModel,
+    model: &impl FiberModel,
     theta: f64,
     theta_i: &[(f64, f64)],
     halves: &[Vec<(f64, f64)>; 2],
     h_rule: &[(f64, f64)],
 ) -> [Moments; 2] {
     let wo = direction(theta, 0.0);
+    let hits: Vec<_> = h_rule.iter().map(|&(h, wh)| (model.at(wo, h), wh)).collect();
     let mut out = [Moments::default(); 2];
     for &(t, wt) in theta_i {
         let th = 0.5 * (theta + t);
@@ -272,7 +273,7 @@ fn half_moments(
         for (half, rule) in out.iter_mut().zip(halves) {
             for &(p, wp) in rule {
                 let wi = direction(t, p);
-                let f_bar: Rgb = h_rule.iter().map(|&(h, wh)| model.eval(wo, wi, h) * wh).sum();
+                let f_bar: Rgb = hits.iter().map(|(hit, wh)| hit.eval(wi) * *wh).sum();
                 let e = f_bar * (wt * wp * cos_t);
                 half.m0 += e;
                 half.m1 += e * th;
@@ -301,7 +302,7 @@ pub fn theta_grid(n: usize) -> Vec<f64> {
 
 /// Computes the tables of `model` for the light inclinations of `settings`, with backscatter
 /// density factor `d_b` (Zinke et al. 2008 use 0.7, [`D_B`]). `fiber` is left `None`.
-pub fn compute(model: &dyn FiberModel, settings: &TableSettings, d_b: f64) -> Tables {
+pub fn compute(model: &impl FiberModel, settings: &TableSettings, d_b: f64) -> Tables {
     let n = settings.theta_count;
     assert!(n >= 2, "a theta grid needs at least 2 entries");
     let theta = theta_grid(n);

@@ -2,7 +2,9 @@
 
 use glam::DVec3;
 use precompute::conventions::{SPHERE, direction};
-use precompute::fiber::{Absorption, Chiang, FiberModel, FiberParams, SpreadScattering, UniformSampled, mp};
+use precompute::fiber::{
+    Absorption, Chiang, FiberHit, FiberModel, FiberParams, FiberSample, SpreadHit, UniformSampled, mp,
+};
 use precompute::quadrature::composite;
 use precompute::special::i0e;
 use precompute::spectrum::Rgb;
@@ -42,7 +44,7 @@ fn furnace_grid() -> Vec<(f64, f64, f64, DVec3)> {
 /// independent random shifts. Doubles the count until the shifts' standard error is below 0.2%
 /// (or 2^23 points per shift).
 /// Returns (mean, standard error, points per shift).
-fn uniform_furnace(model: &dyn FiberModel, wo: DVec3, seed: u64) -> (f64, f64, usize) {
+fn uniform_furnace(model: &impl FiberModel, wo: DVec3, seed: u64) -> (f64, f64, usize) {
     let g = 1.220_744_084_605_759_5_f64; // the real root of x^4 = x + 1 (R3's generator)
     let step = [1.0 / g, 1.0 / (g * g), 1.0 / (g * g * g)];
     let mut rng = Pcg64::seed_from_u64(seed);
@@ -53,7 +55,7 @@ fn uniform_furnace(model: &dyn FiberModel, wo: DVec3, seed: u64) -> (f64, f64, u
         for (shift, sum) in shifts.iter().zip(sums.iter_mut()) {
             for i in done..n {
                 let x: [f64; 3] = std::array::from_fn(|d| (shift[d] + step[d] * i as f64).fract());
-                *sum += model.sample(wo, 2.0 * x[0] - 1.0, [0.0, x[1], x[2], 0.0]).unwrap().weight().0[1];
+                *sum += model.at(wo, 2.0 * x[0] - 1.0).sample([0.0, x[1], x[2], 0.0]).unwrap().weight().0[1];
             }
         }
         done = n;
@@ -99,7 +101,7 @@ fn white_furnace_importance_sampling() {
             let mut sum = 0.0;
             for _ in 0..n {
                 let h = 2.0 * rng.random::<f64>() - 1.0;
-                if let Some(s) = model.sample(wo, h, rng.random()) {
+                if let Some(s) = model.at(wo, h).sample(rng.random()) {
                     sum += s.weight().0[1];
                 }
             }
@@ -121,7 +123,7 @@ fn sample_weights_are_one_without_absorption() {
             let mut worst: f64 = 0.0;
             for _ in 0..5_000 {
                 let h = 2.0 * rng.random::<f64>() - 1.0;
-                let s = model.sample(wo, h, rng.random()).expect("the sampler must always return a direction");
+                let s = model.at(wo, h).sample(rng.random()).expect("the sampler must always return a direction");
                 for c in 0..3 {
                     worst = worst.max((s.weight().0[c] - 1.0).abs());
                 }
@@ -150,8 +152,9 @@ fn sampling_consistency_under_varying_radiance() {
             for _ in 0..n {
                 let h = 2.0 * rng.random::<f64>() - 1.0;
                 let u: [f64; 4] = rng.random();
-                for (k, m) in [&model as &dyn FiberModel, &uniform].into_iter().enumerate() {
-                    let x = m.sample(wo, h, u).map_or(0.0, |s| s.weight().luminance() * li(s.wi));
+                let samples = [model.at(wo, h).sample(u), uniform.at(wo, h).sample(u)];
+                for (k, s) in samples.into_iter().enumerate() {
+                    let x = s.map_or(0.0, |s| s.weight().luminance() * li(s.wi));
                     stats[k].0 += x;
                     stats[k].1 += x * x;
                 }
@@ -195,8 +198,9 @@ fn pdf_and_energy_integrate_to_one() {
     for (bm, bn, a, theta_o, h) in cases {
         let model = fiber(bm, bn, a, 0.0);
         let wo = direction(theta_o, 0.4);
-        let pdf = sphere_quadrature(|wi| model.pdf(wo, wi, h), 600, 600);
-        let energy = sphere_quadrature(|wi| model.eval(wo, wi, h).0[0], 600, 600);
+        let hit = model.at(wo, h);
+        let pdf = sphere_quadrature(|wi| hit.pdf(wi), 600, 600);
+        let energy = sphere_quadrature(|wi| hit.eval(wi).0[0], 600, 600);
         println!("{:?}: int pdf = {pdf:.6}, int f cos = {energy:.6}", (bm, bn, a, theta_o, h));
         assert!((pdf - 1.0).abs() < 0.005, "pdf integrates to {pdf}");
         assert!((energy - 1.0).abs() < 0.005, "energy integrates to {energy}");
@@ -263,12 +267,13 @@ fn bessel_and_mp_match_independent_values() {
 }
 
 /// Chi-square test of `model.sample` against `model.pdf` on an equal-area (sin theta, phi) grid.
-fn chi_square_p_value(model: &dyn FiberModel, wo: DVec3, h: f64, samples: usize, seed: u64) -> (f64, usize) {
+fn chi_square_p_value(model: &impl FiberModel, wo: DVec3, h: f64, samples: usize, seed: u64) -> (f64, usize) {
+    let hit = model.at(wo, h);
     let (nx, np) = (40, 80);
     let mut observed = vec![0.0; nx * np];
     let mut rng = Pcg64::seed_from_u64(seed);
     for _ in 0..samples {
-        let s = model.sample(wo, h, rng.random()).unwrap();
+        let s = hit.sample(rng.random()).unwrap();
         let x = (((s.wi.x + 1.0) * 0.5 * nx as f64) as usize).min(nx - 1);
         let p = (((precompute::conventions::phi(s.wi) + PI) / (2.0 * PI) * np as f64) as usize).min(np - 1);
         observed[x * np + p] += 1.0;
@@ -283,7 +288,7 @@ fn chi_square_p_value(model: &dyn FiberModel, wo: DVec3, h: f64, samples: usize,
             let mut sum = 0.0;
             for &(x, wx) in &composite(x0, x0 + 2.0 / nx as f64, 1, 7) {
                 for &(p, wp) in &composite(p0, p0 + 2.0 * PI / np as f64, 1, 7) {
-                    sum += wx * wp * model.pdf(wo, direction(x.asin(), p), h);
+                    sum += wx * wp * hit.pdf(direction(x.asin(), p));
                 }
             }
             sum * samples as f64
@@ -334,15 +339,22 @@ fn chi_square_test_rejects_a_wrong_pdf() {
     // The test above must have power: the same sampler checked against a slightly wider M_p
     // (beta_m 0.3 vs 0.32) must fail.
     struct Mismatched(Chiang, Chiang);
+    struct MismatchedHit<'a>(<Chiang as FiberModel>::Hit<'a>, <Chiang as FiberModel>::Hit<'a>);
     impl FiberModel for Mismatched {
-        fn eval(&self, wo: DVec3, wi: DVec3, h: f64) -> Rgb {
-            self.0.eval(wo, wi, h)
+        type Hit<'a> = MismatchedHit<'a>;
+        fn at(&self, wo: DVec3, h: f64) -> MismatchedHit<'_> {
+            MismatchedHit(self.0.at(wo, h), self.1.at(wo, h))
         }
-        fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<precompute::fiber::FiberSample> {
-            self.0.sample(wo, h, u)
+    }
+    impl FiberHit for MismatchedHit<'_> {
+        fn eval(&self, wi: DVec3) -> Rgb {
+            self.0.eval(wi)
         }
-        fn pdf(&self, wo: DVec3, wi: DVec3, h: f64) -> f64 {
-            self.1.pdf(wo, wi, h)
+        fn sample(&self, u: [f64; 4]) -> Option<FiberSample> {
+            self.0.sample(u)
+        }
+        fn eval_pdf(&self, wi: DVec3) -> (Rgb, f64) {
+            (self.0.eval(wi), self.1.pdf(wi))
         }
     }
     let model = Mismatched(fiber(0.3, 0.3, 2.0, 0.0), fiber(0.32, 0.3, 2.0, 0.0));
@@ -381,8 +393,9 @@ fn stable_over_the_seed_001_parameter_grid() {
             for &t in &thetas {
                 let wo = direction(t, 0.1);
                 for &h in &hs {
+                    let hit = model.at(wo, h);
                     for &u in &us {
-                        let ok = match model.sample(wo, h, u) {
+                        let ok = match hit.sample(u) {
                             Some(s) => {
                                 s.value.is_finite()
                                     && s.pdf.is_finite()
@@ -401,8 +414,7 @@ fn stable_over_the_seed_001_parameter_grid() {
                     }
                     for &ti in &thetas {
                         let wi = direction(ti, 2.0);
-                        let f = model.eval(wo, wi, h);
-                        let pdf = model.pdf(wo, wi, h);
+                        let (f, pdf) = hit.eval_pdf(wi);
                         if !(f.is_finite() && f.0.iter().all(|&c| c >= 0.0) && pdf.is_finite() && pdf >= 0.0) {
                             bad.push(format!("eval/pdf {params:?} theta_o={t} theta_i={ti} h={h}: {f:?} {pdf}"));
                         }
@@ -470,8 +482,8 @@ fn furnace_value_with_absorption_matches_between_estimators() {
     for _ in 0..n {
         let h = 2.0 * rng.random::<f64>() - 1.0;
         let u: [f64; 4] = rng.random();
-        imp += model.sample(wo, h, u).unwrap().weight();
-        uni += uniform.sample(wo, h, u).unwrap().value * SPHERE;
+        imp += model.at(wo, h).sample(u).unwrap().weight();
+        uni += uniform.at(wo, h).sample(u).unwrap().value * SPHERE;
     }
     let (imp, uni) = (imp / n as f64, uni / n as f64);
     for c in 0..3 {
@@ -489,8 +501,9 @@ fn spread_response_is_the_half_circle_average_of_the_fiber() {
     let rule = composite(-FRAC_PI_2, FRAC_PI_2, 400, 6);
     for (theta_o, h, theta_i, phi_i) in [(0.3, 0.2, -0.4, 0.1), (-1.0, -0.8, 0.9, 2.9), (1.4, 0.95, -1.2, -2.0)] {
         let wo = direction(theta_o, 0.0);
-        let got = model.eval_spread(wo, direction(theta_i, phi_i), h, Rgb::ZERO);
-        let want: Rgb = rule.iter().map(|&(x, w)| model.eval(wo, direction(theta_i, phi_i + x), h) * (w / PI)).sum();
+        let hit = model.at(wo, h);
+        let got = hit.eval_spread(direction(theta_i, phi_i), Rgb::ZERO);
+        let want: Rgb = rule.iter().map(|&(x, w)| hit.eval(direction(theta_i, phi_i + x)) * (w / PI)).sum();
         for c in 0..3 {
             let rel = (got.0[c] - want.0[c]).abs() / want.0[c];
             assert!(rel < 1e-6, "{:?} channel {c}: {} vs {}", (theta_o, h, theta_i, phi_i), got.0[c], want.0[c]);
@@ -511,8 +524,9 @@ fn spread_response_keeps_the_albedo() {
         let wo = direction(theta_o, 0.3);
         let model = fiber(bm, bn, a, sa);
         for c in 0..3 {
-            let plain = sphere_quadrature(|wi| model.eval(wo, wi, h).0[c], 600, 600);
-            let spread_energy = sphere_quadrature(|wi| model.eval_spread(wo, wi, h, Rgb([spread; 3])).0[c], 600, 600);
+            let hit = model.at(wo, h);
+            let plain = sphere_quadrature(|wi| hit.eval(wi).0[c], 600, 600);
+            let spread_energy = sphere_quadrature(|wi| hit.eval_spread(wi, Rgb([spread; 3])).0[c], 600, 600);
             assert!((spread_energy / plain - 1.0).abs() < 2e-3, "case {i} channel {c}: {spread_energy} vs {plain}");
         }
     }

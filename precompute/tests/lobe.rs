@@ -1,7 +1,7 @@
 //! The lobe image integrates to the fiber's albedo, with an h quadrature accurate to 0.1%.
 
 use precompute::conventions::direction;
-use precompute::fiber::{Absorption, Chiang, FiberModel, FiberParams, scale_from_beta_n};
+use precompute::fiber::{Absorption, Chiang, FiberHit, FiberModel, FiberParams, scale_from_beta_n};
 use precompute::lobe::{h_rule, lobe_image};
 use precompute::spectrum::Rgb;
 use rand::{Rng, SeedableRng};
@@ -38,7 +38,7 @@ fn albedo_with_absorption_matches_the_sampled_furnace() {
     let mut sum = Rgb::ZERO;
     for _ in 0..n {
         let h = 2.0 * rng.random::<f64>() - 1.0;
-        sum += model.sample(direction(theta, 0.0), h, rng.random()).unwrap().weight();
+        sum += model.at(direction(theta, 0.0), h).sample(rng.random()).unwrap().weight();
     }
     let (furnace, albedo) = (sum / n as f64, image.albedo());
     println!("furnace {furnace:?}, lobe albedo {albedo:?}");

@@ -1,7 +1,6 @@
 //! Azimuthal scattering N_p: the trimmed logistic about the specular deflection Phi(p, h)
 //! (seed 002 section 1.3.3) and its exact sampler.
 
-use crate::conventions::wrap_angle;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 /// Logistic scale `s` from the user roughness `beta_n` in [0, 1] (seed 002 section 1.3.3):
@@ -66,10 +65,5 @@ impl TrimmedLogistic {
             m += 1.0 - self.cdf(a + TAU);
         }
         m.clamp(0.0, 1.0)
-    }
-
-    /// N_p(phi) for lobe p: the density of the azimuth offset from Phi(p, h), in 1/radian.
-    pub fn np(&self, phi: f64, p: usize, gamma_o: f64, gamma_t: f64) -> f64 {
-        self.pdf(wrap_angle(phi - phi_p(p, gamma_o, gamma_t)))
     }
 }

@@ -16,7 +16,7 @@
 use super::attenuation::{P_MAX, ap};
 use super::azimuthal::{TrimmedLogistic, phi_p, scale_from_beta_n};
 use super::longitudinal::{Longitudinal, variance_from_beta_m};
-use super::{FiberModel, FiberParams, FiberSample, ParamError, SpreadScattering};
+use super::{FiberHit, FiberModel, FiberParams, FiberSample, ParamError, SpreadHit};
 use crate::conventions::{phi, pick, sin_cos_theta, wrap_angle};
 use crate::spectrum::Rgb;
 use glam::DVec3;
@@ -28,22 +28,13 @@ pub struct Chiang {
     sigma_a: Rgb,
     eta: f64,
     /// Longitudinal lobes with variances v_R = v, v_TT = v/4, v_TRT = v_residual = 4 v
-    /// (seed 002 section 1.3.1).
+    /// (seed 002 section 1.3.1); [`ChiangHit`]'s spread response relies on the last two being
+    /// equal.
     m: [Longitudinal; P_MAX + 1],
     /// Azimuthal distribution about each lobe's deflection.
     n: TrimmedLogistic,
     /// `(sin, cos)` of each lobe's tilt shift of theta_o.
     tilt: [(f64, f64); P_MAX],
-}
-
-/// What depends only on the fixed direction wo and the offset h.
-struct Incidence {
-    sin_o: f64,
-    cos_o: f64,
-    phi_o: f64,
-    gamma_o: f64,
-    gamma_t: f64,
-    ap: [Rgb; P_MAX + 1],
 }
 
 impl Chiang {
@@ -60,127 +51,137 @@ impl Chiang {
             tilt: shift.map(f64::sin_cos),
         })
     }
+}
 
-    fn incidence(&self, wo: DVec3, h: f64) -> Incidence {
+/// A [`Chiang`] fiber at one hit: everything that depends only on the fixed direction wo and the
+/// offset h (Fresnel, absorption, refraction, the tilted inclinations, the lobes' deflections).
+pub struct ChiangHit<'a> {
+    fiber: &'a Chiang,
+    phi_o: f64,
+    /// `(sin, cos)` of theta_o + shift_p per lobe (the residual is not tilted); the cosine may
+    /// turn negative past pi/2, which M_p and its sampler handle as the same cone seen from the
+    /// other side.
+    tilted: [(f64, f64); P_MAX + 1],
+    /// Azimuthal deflection Phi(p, h) of each lobe p < P_MAX.
+    deflection: [f64; P_MAX],
+    ap: [Rgb; P_MAX + 1],
+    /// Lobe-selection probabilities: A_p by luminance, normalized (seed 002 section 1.4.2).
+    weights: [f64; P_MAX + 1],
+}
+
+/// What every lobe needs of a direction wi: its inclination's sine and cosine and its azimuth
+/// relative to wo's.
+struct Incoming {
+    sin_i: f64,
+    cos_i: f64,
+    dphi: f64,
+}
+
+impl ChiangHit<'_> {
+    fn incoming(&self, wi: DVec3) -> Incoming {
+        let (sin_i, cos_i) = sin_cos_theta(wi);
+        Incoming { sin_i, cos_i, dphi: phi(wi) - self.phi_o }
+    }
+
+    /// Direction density M_p N_p of each lobe at wi (each integrates to 1 over the sphere).
+    fn lobe_densities(&self, d: &Incoming) -> [f64; P_MAX + 1] {
+        std::array::from_fn(|p| {
+            let (sin_o, cos_o) = self.tilted[p];
+            let n = if p < P_MAX { self.fiber.n.pdf(wrap_angle(d.dphi - self.deflection[p])) } else { 0.5 * FRAC_1_PI };
+            self.fiber.m[p].eval(d.cos_i, d.sin_i, cos_o, sin_o) * n
+        })
+    }
+
+    fn value(&self, densities: &[f64; P_MAX + 1]) -> Rgb {
+        (0..=P_MAX).map(|p| self.ap[p] * densities[p]).sum()
+    }
+
+    /// f_s^G at `d` (see [`SpreadHit::eval_spread`]): each N_p averaged over the half circle of
+    /// azimuths within pi/2 of wi's (each still integrates to 1 over the circle), each M_p
+    /// widened by the channel's spread.
+    fn spread(&self, d: &Incoming, spread: Rgb) -> Rgb {
+        let n: [f64; P_MAX + 1] = std::array::from_fn(|p| {
+            if p < P_MAX {
+                self.fiber.n.half_circle_mass(wrap_angle(d.dphi - self.deflection[p])) * FRAC_1_PI
+            } else {
+                0.5 * FRAC_1_PI
+            }
+        });
+        let mut out = Rgb::ZERO;
+        for c in 0..3 {
+            // The residual's variance is TRT's (4 v), so it shares TRT's widened lobe.
+            let widened: [Longitudinal; P_MAX] = std::array::from_fn(|p| self.fiber.m[p].widened(spread.0[c]));
+            for p in 0..=P_MAX {
+                let (sin_o, cos_o) = self.tilted[p];
+                let m = widened[p.min(P_MAX - 1)].eval(d.cos_i, d.sin_i, cos_o, sin_o);
+                out.0[c] += self.ap[p].0[c] * m * n[p];
+            }
+        }
+        out
+    }
+}
+
+impl FiberModel for Chiang {
+    type Hit<'a> = ChiangHit<'a>;
+
+    fn at(&self, wo: DVec3, h: f64) -> ChiangHit<'_> {
         let (sin_o, cos_o) = sin_cos_theta(wo);
         let h = h.clamp(-1.0, 1.0);
         // Snell in the normal plane with the modified index eta' = sqrt(eta^2 - sin^2)/cos
         // (Bravais; seed 002 1.3.2), written so that cos theta_o = 0 needs no division by it.
         let sin_gamma_t = h * cos_o / (self.eta * self.eta - sin_o * sin_o).sqrt();
         let cos_gamma_t = (1.0 - sin_gamma_t * sin_gamma_t).max(0.0).sqrt();
-        Incidence {
-            sin_o,
-            cos_o,
-            phi_o: phi(wo),
-            gamma_o: h.asin(),
-            gamma_t: sin_gamma_t.asin(),
-            ap: ap(cos_o, sin_o, self.eta, h, self.sigma_a, cos_gamma_t),
-        }
-    }
-
-    /// `(sin, cos)` of theta_o + shift_p; the cosine may turn negative past pi/2, which M_p and
-    /// its sampler handle as the same cone seen from the other side.
-    fn tilted(&self, inc: &Incidence, p: usize) -> (f64, f64) {
-        if p == P_MAX {
-            return (inc.sin_o, inc.cos_o);
-        }
-        let (sin_d, cos_d) = self.tilt[p];
-        (inc.sin_o * cos_d + inc.cos_o * sin_d, inc.cos_o * cos_d - inc.sin_o * sin_d)
-    }
-
-    /// Direction density M_p N_p of each lobe at wi (each integrates to 1 over the sphere).
-    fn lobe_densities(&self, inc: &Incidence, wi: DVec3) -> [f64; P_MAX + 1] {
-        let (sin_i, cos_i) = sin_cos_theta(wi);
-        let dphi = phi(wi) - inc.phi_o;
-        std::array::from_fn(|p| {
-            let (sin_o, cos_o) = self.tilted(inc, p);
-            let n = if p < P_MAX { self.n.np(dphi, p, inc.gamma_o, inc.gamma_t) } else { 0.5 * FRAC_1_PI };
-            self.m[p].eval(cos_i, sin_i, cos_o, sin_o) * n
-        })
-    }
-
-    /// Each lobe's N_p averaged over the half circle of azimuths within pi/2 of wi's
-    /// ([`SpreadScattering`]); each integrates to 1 over the circle.
-    fn half_circle_averages(&self, inc: &Incidence, wi: DVec3) -> [f64; P_MAX + 1] {
-        let dphi = phi(wi) - inc.phi_o;
-        std::array::from_fn(|p| {
-            if p < P_MAX {
-                let c = wrap_angle(dphi - phi_p(p, inc.gamma_o, inc.gamma_t));
-                self.n.half_circle_mass(c) * FRAC_1_PI
-            } else {
-                0.5 * FRAC_1_PI
+        let (gamma_o, gamma_t) = (h.asin(), sin_gamma_t.asin());
+        let ap = ap(cos_o, sin_o, self.eta, h, self.sigma_a, cos_gamma_t);
+        let tilted = std::array::from_fn(|p| {
+            if p == P_MAX {
+                return (sin_o, cos_o);
             }
-        })
+            let (sin_d, cos_d) = self.tilt[p];
+            (sin_o * cos_d + cos_o * sin_d, cos_o * cos_d - sin_o * sin_d)
+        });
+        let y = ap.map(Rgb::luminance);
+        let total: f64 = y.iter().sum();
+        ChiangHit {
+            fiber: self,
+            phi_o: phi(wo),
+            tilted,
+            deflection: std::array::from_fn(|p| phi_p(p, gamma_o, gamma_t)),
+            ap,
+            weights: y.map(|y| y / total),
+        }
     }
 }
 
-/// Lobe-selection probabilities: A_p by luminance, normalized (seed 002 section 1.4.2).
-fn lobe_weights(ap: &[Rgb; P_MAX + 1]) -> [f64; P_MAX + 1] {
-    let y = ap.map(Rgb::luminance);
-    let total: f64 = y.iter().sum();
-    y.map(|y| y / total)
-}
-
-impl FiberModel for Chiang {
-    fn eval(&self, wo: DVec3, wi: DVec3, h: f64) -> Rgb {
-        let inc = self.incidence(wo, h);
-        let d = self.lobe_densities(&inc, wi);
-        (0..=P_MAX).map(|p| inc.ap[p] * d[p]).sum()
+impl FiberHit for ChiangHit<'_> {
+    fn eval(&self, wi: DVec3) -> Rgb {
+        self.value(&self.lobe_densities(&self.incoming(wi)))
     }
 
-    fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<FiberSample> {
-        let inc = self.incidence(wo, h);
-        let w = lobe_weights(&inc.ap);
-        let (p, _) = pick(&w, u[0]);
-        let (sin_o, cos_o) = self.tilted(&inc, p);
-        let (sin_i, cos_i) = self.m[p].sample(cos_o, sin_o, u[1], u[2]);
-        let dphi = if p < P_MAX { phi_p(p, inc.gamma_o, inc.gamma_t) + self.n.sample(u[3]) } else { TAU * u[3] };
-        let (sin_p, cos_p) = (inc.phi_o + dphi).sin_cos();
+    fn sample(&self, u: [f64; 4]) -> Option<FiberSample> {
+        let (p, _) = pick(&self.weights, u[0]);
+        let (sin_o, cos_o) = self.tilted[p];
+        let (sin_i, cos_i) = self.fiber.m[p].sample(cos_o, sin_o, u[1], u[2]);
+        let dphi = if p < P_MAX { self.deflection[p] + self.fiber.n.sample(u[3]) } else { TAU * u[3] };
+        let (sin_p, cos_p) = (self.phi_o + dphi).sin_cos();
         let wi = DVec3::new(sin_i, cos_i * cos_p, cos_i * sin_p);
-
-        let d = self.lobe_densities(&inc, wi);
-        let pdf: f64 = (0..=P_MAX).map(|p| w[p] * d[p]).sum();
-        let value = (0..=P_MAX).map(|p| inc.ap[p] * d[p]).sum();
+        let (value, pdf) = self.eval_pdf(wi);
         (pdf > 0.0 && pdf.is_finite()).then_some(FiberSample { wi, value, pdf })
     }
 
-    fn pdf(&self, wo: DVec3, wi: DVec3, h: f64) -> f64 {
-        self.eval_pdf(wo, wi, h).1
-    }
-
-    fn eval_pdf(&self, wo: DVec3, wi: DVec3, h: f64) -> (Rgb, f64) {
-        let inc = self.incidence(wo, h);
-        let w = lobe_weights(&inc.ap);
-        let d = self.lobe_densities(&inc, wi);
-        ((0..=P_MAX).map(|p| inc.ap[p] * d[p]).sum(), (0..=P_MAX).map(|p| w[p] * d[p]).sum())
+    fn eval_pdf(&self, wi: DVec3) -> (Rgb, f64) {
+        let d = self.lobe_densities(&self.incoming(wi));
+        (self.value(&d), (0..=P_MAX).map(|p| self.weights[p] * d[p]).sum())
     }
 }
 
-impl SpreadScattering for Chiang {
-    fn eval_spread(&self, wo: DVec3, wi: DVec3, h: f64, spread: Rgb) -> Rgb {
-        self.spread_at(&self.incidence(wo, h), wi, spread)
+impl SpreadHit for ChiangHit<'_> {
+    fn eval_spread(&self, wi: DVec3, spread: Rgb) -> Rgb {
+        self.spread(&self.incoming(wi), spread)
     }
 
-    fn eval_both(&self, wo: DVec3, wi: DVec3, h: f64, spread: Rgb) -> (Rgb, Rgb) {
-        let inc = self.incidence(wo, h);
-        let d = self.lobe_densities(&inc, wi);
-        ((0..=P_MAX).map(|p| inc.ap[p] * d[p]).sum(), self.spread_at(&inc, wi, spread))
-    }
-}
-
-impl Chiang {
-    /// f_s^G for the incidence `inc` (see [`SpreadScattering::eval_spread`]).
-    fn spread_at(&self, inc: &Incidence, wi: DVec3, spread: Rgb) -> Rgb {
-        let (sin_i, cos_i) = sin_cos_theta(wi);
-        let n = self.half_circle_averages(inc, wi);
-        let mut out = Rgb::ZERO;
-        for (p, n) in n.into_iter().enumerate() {
-            let (sin_o, cos_o) = self.tilted(inc, p);
-            for c in 0..3 {
-                let m = self.m[p].widened(spread.0[c]).eval(cos_i, sin_i, cos_o, sin_o);
-                out.0[c] += inc.ap[p].0[c] * m * n;
-            }
-        }
-        out
+    fn eval_both(&self, wi: DVec3, spread: Rgb) -> (Rgb, Rgb) {
+        let d = self.incoming(wi);
+        (self.value(&self.lobe_densities(&d)), self.spread(&d, spread))
     }
 }

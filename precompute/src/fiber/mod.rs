@@ -14,7 +14,7 @@ mod params;
 
 pub use attenuation::{P_MAX, fresnel_dielectric};
 pub use azimuthal::scale_from_beta_n;
-pub use chiang::Chiang;
+pub use chiang::{Chiang, ChiangHit};
 pub use longitudinal::{Longitudinal, mp, variance_from_beta_m};
 pub use params::{Absorption, FiberParams, ParamError};
 
@@ -40,24 +40,41 @@ impl FiberSample {
 }
 
 /// A single-fiber scattering model together with a sampler for it.
+///
+/// Everything is asked of the model at one hit ([`FiberModel::at`]): the fixed direction `wo` and
+/// the offset `h` across the fiber decide Fresnel, absorption and refraction, so a model computes
+/// them once there and every direction evaluated or sampled at that hit reuses them (a `dual`
+/// hit asks about two to a few dozen directions, a precomputed table thousands).
 pub trait FiberModel: Send + Sync {
+    /// The model at one hit.
+    type Hit<'a>: FiberHit
+    where
+        Self: 'a;
+
+    /// The model at the hit with fixed direction `wo` (local) and offset `h`.
+    fn at(&self, wo: DVec3, h: f64) -> Self::Hit<'_>;
+}
+
+/// A fiber model at one hit (fixed `wo` and `h`: [`FiberModel::at`]).
+pub trait FiberHit: Send + Sync {
     /// The projected BCSDF `f(wo, wi) |cos theta_i|` (pbrt's f times |cos theta_i|), per unit solid
-    /// angle of `wi`, for a hit at offset `h`. Returning the projected value keeps it finite at
-    /// theta_i = +-pi/2, and it is what every estimator multiplies by.
-    fn eval(&self, wo: DVec3, wi: DVec3, h: f64) -> Rgb;
+    /// angle of `wi`. Returning the projected value keeps it finite at theta_i = +-pi/2, and it is
+    /// what every estimator multiplies by.
+    fn eval(&self, wi: DVec3) -> Rgb;
 
     /// Draws `wi` from four uniform numbers in [0, 1); `None` if no direction can be drawn.
     /// Renderers stratify (u[1], u[2]) as one pair and (u[0], u[3]) as another: a sampler draws
     /// its main two-dimensional choice (the longitudinal cone, a point on the sphere) from the
     /// first pair.
-    fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<FiberSample>;
+    fn sample(&self, u: [f64; 4]) -> Option<FiberSample>;
 
-    /// Density per unit solid angle with which [`FiberModel::sample`] draws `wi`.
-    fn pdf(&self, wo: DVec3, wi: DVec3, h: f64) -> f64;
+    /// `(eval, pdf)` at once, as a light sample needs both: the density per unit solid angle
+    /// with which [`FiberHit::sample`] draws `wi`, beside the value.
+    fn eval_pdf(&self, wi: DVec3) -> (Rgb, f64);
 
-    /// `(eval, pdf)` at once, as a light sample needs both: a model can share its per-hit work.
-    fn eval_pdf(&self, wo: DVec3, wi: DVec3, h: f64) -> (Rgb, f64) {
-        (self.eval(wo, wi, h), self.pdf(wo, wi, h))
+    /// Density per unit solid angle with which [`FiberHit::sample`] draws `wi`.
+    fn pdf(&self, wi: DVec3) -> f64 {
+        self.eval_pdf(wi).1
     }
 }
 
@@ -69,31 +86,45 @@ pub trait FiberModel: Send + Sync {
 /// an extra variance `spread` of the inclination (radians^2, per channel), azimuthally uniformly
 /// over the half circle of directions within pi/2 of `wi`'s azimuth (Zinke's s_f = 1/pi). So f_s^G
 /// widens every longitudinal lobe by `spread` and replaces each N_p by its average over that
-/// half circle. Like [`FiberModel::eval`] it is the projected value per unit solid angle of `wi`
+/// half circle. Like [`FiberHit::eval`] it is the projected value per unit solid angle of `wi`
 /// and integrates over `wi` to the same albedo.
-pub trait SpreadScattering: FiberModel {
-    fn eval_spread(&self, wo: DVec3, wi: DVec3, h: f64, spread: Rgb) -> Rgb;
+pub trait SpreadHit: FiberHit {
+    fn eval_spread(&self, wi: DVec3, spread: Rgb) -> Rgb;
 
-    /// `(eval, eval_spread)` at once: a model can share its per-hit state between them.
-    fn eval_both(&self, wo: DVec3, wi: DVec3, h: f64, spread: Rgb) -> (Rgb, Rgb) {
-        (self.eval(wo, wi, h), self.eval_spread(wo, wi, h, spread))
+    /// `(eval, eval_spread)` at once: a model can share the work of one direction between them.
+    fn eval_both(&self, wi: DVec3, spread: Rgb) -> (Rgb, Rgb) {
+        (self.eval(wi), self.eval_spread(wi, spread))
     }
 }
 
 /// Any fiber model, sampled uniformly over the sphere: the baseline for comparisons.
 pub struct UniformSampled<M>(pub M);
 
+/// [`UniformSampled`] at one hit.
+pub struct UniformHit<H>(H);
+
 impl<M: FiberModel> FiberModel for UniformSampled<M> {
-    fn eval(&self, wo: DVec3, wi: DVec3, h: f64) -> Rgb {
-        self.0.eval(wo, wi, h)
+    type Hit<'a>
+        = UniformHit<M::Hit<'a>>
+    where
+        Self: 'a;
+
+    fn at(&self, wo: DVec3, h: f64) -> Self::Hit<'_> {
+        UniformHit(self.0.at(wo, h))
+    }
+}
+
+impl<H: FiberHit> FiberHit for UniformHit<H> {
+    fn eval(&self, wi: DVec3) -> Rgb {
+        self.0.eval(wi)
     }
 
-    fn sample(&self, wo: DVec3, h: f64, u: [f64; 4]) -> Option<FiberSample> {
+    fn sample(&self, u: [f64; 4]) -> Option<FiberSample> {
         let wi = crate::conventions::uniform_sphere([u[1], u[2]]);
-        Some(FiberSample { wi, value: self.0.eval(wo, wi, h), pdf: 1.0 / SPHERE })
+        Some(FiberSample { wi, value: self.0.eval(wi), pdf: 1.0 / SPHERE })
     }
 
-    fn pdf(&self, _wo: DVec3, _wi: DVec3, _h: f64) -> f64 {
-        1.0 / SPHERE
+    fn eval_pdf(&self, wi: DVec3) -> (Rgb, f64) {
+        (self.0.eval(wi), 1.0 / SPHERE)
     }
 }

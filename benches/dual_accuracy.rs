@@ -17,8 +17,13 @@
 //! DUALHAIR_ACC_DUAL_SPP (default 2048), DUALHAIR_ACC_MODELS (comma-separated variants, each
 //! `NAME[@D_F/D_B][:SHADOWS]`, NAME as for `render --model`, SHADOWS `lookup` (default) or `rays`;
 //! default `zinke2008@0.7/0.7:rays,two_stream:rays,two_stream`),
-//! DUALHAIR_ACC_GROOMS (comma-separated .hair files). References are kept in `target/dual-accuracy/` and reused by
-//! name, size and spp: delete that folder after changing the path tracer or a scene.
+//! DUALHAIR_ACC_GROOMS (comma-separated .hair files), DUALHAIR_ACC_SEEDS (default 1: with more,
+//! each `dual` render is repeated with seeds 1, 2, ..., its mean ratio is the mean over seeds with
+//! its standard error, and a model rendered both with `rays` and with the lookup gets a line
+//! `lookup / rays` with the mean and standard error over seeds of the ratio of the two renders of
+//! one seed: same seed, same light directions, so their difference is the lookup's alone).
+//! References are kept in `target/dual-accuracy/` and reused by name, size and spp: delete that
+//! folder after changing the path tracer or a scene.
 
 use dualhair::cache::Cache;
 use dualhair::compare::{block_relative_rmse, hair_pixels, mean_luminance, relative_rmse};
@@ -134,6 +139,8 @@ fn main() {
             let total = mean_luminance(&reference, &pixels);
             let shares = |film: &Film| term_means(film, &pixels).map(|t| format!("{:.3}", t / total)).join(" | ");
             println!("| {hair} | {light} | path | - | {} | 1 | - |", shares(&reference));
+            // Each model's mean ratio per seed, by (model with factors, shadows).
+            let mut ratios: Vec<((&str, &str), Vec<f64>)> = Vec::new();
             for spec in models.split(',') {
                 let (spec_model, shadows) = spec.split_once(':').unwrap_or((spec, "lookup"));
                 let (model, d) = spec_model.split_once('@').unwrap_or((spec_model, ""));
@@ -149,13 +156,19 @@ fn main() {
                 let (film, secs) = timed_render(&dual, &cache, true);
                 let blocks = block_relative_rmse(&film, &reference, 4)
                     .map_or("no full block".into(), |(e, n)| format!("{:.1}% ({:.1}%)", 100.0 * e, 100.0 * n));
+                let mut seeds = vec![mean_luminance(&film, &pixels) / total];
+                for seed in 2..=env_or("DUALHAIR_ACC_SEEDS", 1u64) {
+                    dual.render.seed = seed;
+                    seeds.push(mean_luminance(&timed_render(&dual, &cache, false).0, &pixels) / total);
+                }
                 println!(
-                    "| {hair} | {light} | dual {model} ({shadows}) | {}, {} | {} | {:.3} | {blocks} |",
+                    "| {hair} | {light} | dual {model} ({shadows}) | {}, {} | {} | {} | {blocks} |",
                     dual.dual.d_f,
                     dual.dual.d_b,
                     shares(&film),
-                    mean_luminance(&film, &pixels) / total,
+                    mean_and_error(&seeds),
                 );
+                ratios.push(((spec_model, shadows), seeds));
                 eprintln!("  {name} {spec}: {secs:.1} s, {} hair pixels", pixels.len());
                 if std::env::var("DUALHAIR_ACC_SWEEP").is_ok_and(|v| v == "1") {
                     let target = 1.1 * relative_rmse(&film, &reference, &pixels);
@@ -167,6 +180,23 @@ fn main() {
                     eprintln!("  time to {target:.4}: dual {:?}, path {:?}", first(&d), first(&p));
                 }
             }
+            for ((model, _), rays) in ratios.iter().filter(|r| r.0.1 == "rays") {
+                if let Some((_, lookup)) = ratios.iter().find(|r| r.0 == (*model, "lookup")) {
+                    let paired: Vec<f64> = lookup.iter().zip(rays).map(|(l, r)| l / r).collect();
+                    println!("| {hair} | {light} | {model}: lookup / rays | | | | | | {} | |", mean_and_error(&paired));
+                }
+            }
         }
     }
+}
+
+/// "mean" of one value, "mean +- standard error of the mean" of several.
+fn mean_and_error(values: &[f64]) -> String {
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    if values.len() < 2 {
+        return format!("{mean:.3}");
+    }
+    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    format!("{mean:.4} +- {:.4}", (var / n).sqrt())
 }

@@ -142,18 +142,17 @@ impl DualModel {
         1.0 / (c + (c * c - 1.0).max(0.0).sqrt())
     }
 
-    /// T_f / d_f through `n` fibers (a real count or the grid's mean, per `transmittance`) for
-    /// one channel's a_f and a_b.
-    pub fn transmittance(self, a_f: f64, a_b: f64, n: f64) -> f64 {
-        let a = self.per_fiber(a_f, a_b);
+    /// T_f / d_f through `n` fibers (a real count or the grid's mean, per `transmittance`), per
+    /// channel of a_f and a_b.
+    pub fn transmittance(self, a_f: Rgb, a_b: Rgb, n: f64) -> Rgb {
+        let a = a_f.zip(a_b, |f, b| self.per_fiber(f, b));
         match self.transmittance_kind() {
-            Transmittance::Grid | Transmittance::Fibers => a.powf(n),
+            Transmittance::Grid | Transmittance::Fibers => a.map(|a| a.powf(n)),
             // e^-n (e^(n a) - 1) / (1 - e^-n): in expm1 form for small n a (exact as n -> 0,
             // where one fiber transmits a), else as written (no overflow for large n).
             Transmittance::Poisson if n > 0.0 => {
-                let numerator =
-                    if n * a < 1.0 { (-n).exp() * (n * a).exp_m1() } else { (-n * (1.0 - a)).exp() - (-n).exp() };
-                numerator / -(-n).exp_m1()
+                let (none, some) = ((-n).exp(), -(-n).exp_m1());
+                a.map(|a| if n * a < 1.0 { none * (n * a).exp_m1() } else { (-n * (1.0 - a)).exp() - none } / some)
             }
             Transmittance::Poisson => a,
         }
@@ -287,6 +286,20 @@ struct Incoming {
     cos_i: f64,
     dphi: f64,
     row: [Rgb; 9],
+    /// The backscatter lobe of each channel at this inclination (when d_b > 0).
+    back: [BackLobe; 3],
+}
+
+/// The local backscatter lobe f_back of one channel at a light inclination, without its width:
+/// its albedo A_b and the sine and cosine of the inclination theta_o - 2 Delta_b whose mirror
+/// it is centred on (every term that reads it, lit or in shadow, shares this work).
+#[derive(Clone, Copy, Default)]
+struct BackLobe {
+    albedo: f64,
+    sin_c: f64,
+    cos_c: f64,
+    /// sigma_b^2, a variance of theta_h.
+    variance: f64,
 }
 
 /// F at one fiber hit, with its sampler.
@@ -323,12 +336,15 @@ where
     fn f(&self, wi: DVec3, d: DVec3) -> Split {
         let dual = self.dual;
         let (sin_i, cos_i) = sin_cos_theta(wi);
-        let dphi = wrap_angle(phi(wi) - self.phi_o).abs();
-        let inc = Incoming { wi, sin_i, cos_i, dphi, row: dual.tables.at(sin_i.asin()) };
+        let (theta_i, phi_i) = (sin_i.asin(), phi(wi));
+        let dphi = wrap_angle(phi_i - self.phi_o).abs();
+        let row = dual.tables.at(theta_i);
+        let back = if dual.d_b > 0.0 { self.back_lobes(&row) } else { [BackLobe::default(); 3] };
+        let inc = Incoming { wi, sin_i, cos_i, dphi, row, back };
         // The segment's lit fraction toward the light (Zinke et al. 2008's directFraction) weighs
         // F_direct against F_scatter of its mean count n. Without an entry, rays.
         let entry = match dual.shadows {
-            Shadows::Lookup(lookup) => lookup.toward(self.segment, self.h, d, wi),
+            Shadows::Lookup(lookup) => lookup.toward(self.segment, self.h, d, theta_i, phi_i),
             Shadows::Rays => None,
         };
         let Some((lit, n)) = entry else { return self.f_rays(&inc, d) };
@@ -390,7 +406,7 @@ where
         }
         let (model, row) = (dual.model, &inc.row);
         let a_f = row[Quantity::AF as usize];
-        let t_f = Rgb(std::array::from_fn(|c| model.transmittance(a_f.0[c], row[Quantity::AB as usize].0[c], n)));
+        let t_f = model.transmittance(a_f, row[Quantity::AB as usize], n);
         let mean_n = model.mean_count(n);
         let var_f = Rgb(row[Quantity::BetaF as usize].0.map(|b| mean_n * b * b));
         let scale = t_f * if model.d_f_twice() { dual.d_f * dual.d_f } else { dual.d_f };
@@ -402,20 +418,26 @@ where
         split
     }
 
+    /// Each channel's [`BackLobe`] from the tables' row at the light's inclination.
+    fn back_lobes(&self, row: &[Rgb; 9]) -> [BackLobe; 3] {
+        std::array::from_fn(|c| {
+            let q = |q: Quantity| row[q as usize].0[c];
+            let albedo = self.dual.model.backscatter_albedo(q(Quantity::AF), q(Quantity::AB), q(Quantity::ABack));
+            let (sin_c, cos_c) = (self.theta_o - 2.0 * q(Quantity::DeltaB)).sin_cos();
+            BackLobe { albedo, sin_c, cos_c, variance: q(Quantity::SigmaB).powi(2) }
+        })
+    }
+
     /// A_b(theta) M(theta_i; 2 Delta_b - theta_o, 4 (sigma_b^2 + extra)) per channel: f_back
     /// without its azimuthal factor. `extra` is a theta_h variance, like sigma_b^2.
     fn backscatter(&self, inc: &Incoming, extra: Rgb) -> Rgb {
-        let (row, sin_i, cos_i) = (&inc.row, inc.sin_i, inc.cos_i);
         Rgb(std::array::from_fn(|c| {
-            let q = |q: Quantity| row[q as usize].0[c];
-            let a = self.dual.model.backscatter_albedo(q(Quantity::AF), q(Quantity::AB), q(Quantity::ABack));
-            if a <= 0.0 {
+            let b = &inc.back[c];
+            if b.albedo <= 0.0 {
                 return 0.0;
             }
-            let sigma = row[Quantity::SigmaB as usize].0[c];
-            let (s, co) = (self.theta_o - 2.0 * row[Quantity::DeltaB as usize].0[c]).sin_cos();
-            let lobe = Longitudinal::new((4.0 * (sigma * sigma + extra.0[c])).max(MIN_VARIANCE));
-            a * lobe.eval(cos_i, sin_i, co, s)
+            let lobe = Longitudinal::new((4.0 * (b.variance + extra.0[c])).max(MIN_VARIANCE));
+            b.albedo * lobe.eval(inc.cos_i, inc.sin_i, b.cos_c, b.sin_c)
         }))
     }
 
@@ -508,6 +530,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::DualModel;
+    use precompute::spectrum::Rgb;
 
     /// P(N = k) for a Poisson count of mean n.
     fn poisson(n: f64, k: u32) -> f64 {
@@ -521,17 +544,18 @@ mod tests {
         for n in [0.05f64, 0.7, 3.0, 12.0, 40.0] {
             for a in [0.0f64, 0.04, 0.35, 0.72, 1.0] {
                 let direct = (1..400).map(|k| poisson(n, k) * a.powi(k as i32)).sum::<f64>() / (1.0 - (-n).exp());
-                let t = DualModel::Poisson.transmittance(a, 0.1, n);
+                let t = DualModel::Poisson.transmittance(Rgb::splat(a), Rgb::splat(0.1), n).0[0];
                 assert!((t - direct).abs() < 1e-12 * direct.max(1e-300) + 1e-15, "n {n}, a {a}: {t} vs {direct}");
             }
             let mean = (1..400).map(|k| k as f64 * poisson(n, k)).sum::<f64>() / (1.0 - (-n).exp());
             assert!((DualModel::Poisson.mean_count(n) - mean).abs() < 1e-10 * mean);
         }
-        assert!((DualModel::Poisson.transmittance(0.6, 0.1, 1e-9) - 0.6).abs() < 1e-8);
-        assert!((DualModel::Poisson.transmittance(0.6, 0.1, 0.0) - 0.6).abs() < 1e-15);
-        let deep = DualModel::Poisson.transmittance(0.9, 0.1, 1000.0);
+        let t = |model: DualModel, a: f64, n: f64| model.transmittance(Rgb::splat(a), Rgb::splat(0.1), n).0[0];
+        assert!((t(DualModel::Poisson, 0.6, 1e-9) - 0.6).abs() < 1e-8);
+        assert!((t(DualModel::Poisson, 0.6, 0.0) - 0.6).abs() < 1e-15);
+        let deep = t(DualModel::Poisson, 0.9, 1000.0);
         assert!((deep / (-100.0f64).exp() - 1.0).abs() < 1e-9, "{deep}");
-        assert_eq!(DualModel::Zinke2008.transmittance(0.5, 0.1, 3.0), 0.125);
+        assert_eq!(t(DualModel::Zinke2008, 0.5, 3.0), 0.125);
     }
 
     #[test]

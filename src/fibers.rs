@@ -190,11 +190,12 @@ impl Fibers {
         (c.b - c.a).normalize().as_vec3()
     }
 
-    /// Where the ray enters capsule `slot` (fiber units), if that entry is on the fiber's surface:
+    /// Where the ray enters capsule `slot` (fiber units) before `t_max`, if that entry is on the
+    /// fiber's surface (the costlier test, so only for entries that are near enough to matter):
     /// an entry inside a neighbouring capsule of the same strand (at the joint, where they
     /// overlap) crosses no surface; only a ray that is already inside the fiber makes one.
-    fn enter(&self, o: DVec3, d: DVec3, slot: usize) -> Option<f64> {
-        let t = enter_capsule(o, d, &self.capsule(slot), Self::T_MIN)?;
+    fn enter(&self, o: DVec3, d: DVec3, slot: usize, t_max: f32) -> Option<f64> {
+        let t = enter_capsule(o, d, &self.capsule(slot), Self::T_MIN).filter(|&t| (t as f32) < t_max)?;
         let p = o + t * d;
         let interior = self.neighbours[slot].iter().any(|&n| n != NONE && inside_capsule(p, &self.capsule(n as usize)));
         (!interior).then_some(t)
@@ -214,12 +215,12 @@ impl Fibers {
         let (ray, o, d) = self.to_bvh_ray(origin, dir, t_max);
         let mut hit = RayHit::none();
         let mut best = f64::INFINITY;
-        self.bvh.ray_traverse(ray, &mut hit, |r, id| match self.enter(o, d, id) {
-            Some(t) if (t as f32) < r.tmax => {
+        self.bvh.ray_traverse(ray, &mut hit, |r, id| match self.enter(o, d, id, r.tmax) {
+            Some(t) => {
                 best = t;
                 t as f32
             }
-            _ => f32::INFINITY,
+            None => f32::INFINITY,
         });
         if hit.primitive_id == obvhs::ray::INVALID_ID {
             return None;
@@ -242,10 +243,7 @@ impl Fibers {
     /// Whether any fiber blocks the ray before `t_max` (world units).
     pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
         let (ray, o, d) = self.to_bvh_ray(origin, dir, t_max);
-        !self.bvh.ray_traverse_miss(ray, |r, id| match self.enter(o, d, id) {
-            Some(t) if (t as f32) < r.tmax => t as f32,
-            _ => f32::INFINITY,
-        })
+        !self.bvh.ray_traverse_miss(ray, |r, id| self.enter(o, d, id, r.tmax).map_or(f32::INFINITY, |t| t as f32))
     }
 
     /// The number of fibers the ray crosses (to infinity): Zinke et al. 2008's ray-shooting count
@@ -255,7 +253,7 @@ impl Fibers {
         let (ray, o, d) = self.to_bvh_ray(origin, dir, f32::INFINITY);
         let mut hits: Vec<(f64, u32)> = Vec::new();
         self.bvh.ray_traverse_anyhit(ray, |_, id| {
-            if let Some(t) = self.enter(o, d, id) {
+            if let Some(t) = self.enter(o, d, id, f32::INFINITY) {
                 hits.push((t, self.ids[id]));
             }
         });

@@ -32,24 +32,34 @@ pub struct LightSample {
 pub struct EnvMap {
     width: usize,
     height: usize,
-    texels: Vec<Rgb>,
-    /// Each texel's probability (its sampling weight over their sum), for the pdf.
-    probability: Vec<f64>,
-    /// Draws texels with those probabilities in O(1); `None` when every weight is 0.
-    alias: Option<AliasTable>,
-    /// Sum of the sampling weights.
+    /// Row by row from the top: what radiance lookups and light samples read, one record a
+    /// texel, so that a light sample fetches one or two cache lines of a map of megabytes.
+    texels: Vec<Texel>,
+    /// Sum of the sampling weights; 0 when every weight is 0 (nothing to sample).
     total: f64,
     rotation: f64,
+}
+
+/// A texel: its radiance, its probability of being sampled, and its bin of the alias table.
+#[derive(Clone, Copy)]
+struct Texel {
+    /// Radiance (times the map's strength), in f32 like the file's own values.
+    radiance: [f32; 3],
+    /// Its sampling weight over the sum of all weights, for the pdf.
+    probability: f32,
+    bin: AliasBin,
+}
+
+impl Texel {
+    fn radiance(&self) -> Rgb {
+        Rgb(self.radiance.map(f64::from))
+    }
 }
 
 /// Walker's alias method, built in O(n) by Vose's algorithm (Vose 1991, "A linear algorithm for
 /// generating random numbers with a given distribution"): bin i keeps outcome i with probability
 /// `keep` and gives its `alias` otherwise, so a draw reads one bin where inverting a CDF searches
 /// one (the environment's two binary searches were 14% of a `dual` render, perf).
-struct AliasTable {
-    bins: Vec<AliasBin>,
-}
-
 #[derive(Clone, Copy)]
 struct AliasBin {
     /// In f32: the probabilities it gives differ from the weights' by under 1e-7 relative.
@@ -57,39 +67,39 @@ struct AliasBin {
     alias: u32,
 }
 
-impl AliasTable {
-    /// From non-negative weights with a positive sum (at most 2^32 of them).
-    fn new(weights: &[f64]) -> AliasTable {
-        let n = weights.len();
-        let total: f64 = weights.iter().sum();
-        // Each weight as a multiple of the mean: a bin holds exactly 1.
-        let mut scaled: Vec<f64> = weights.iter().map(|w| w * n as f64 / total).collect();
-        let mut bins = vec![AliasBin { keep: 1.0, alias: 0 }; n];
-        let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
-        while let (Some(&s), Some(&l)) = (small.last(), large.last()) {
-            small.pop();
-            bins[s] = AliasBin { keep: scaled[s] as f32, alias: l as u32 };
-            // The large outcome fills the rest of bin s.
-            scaled[l] -= 1.0 - scaled[s];
-            if scaled[l] < 1.0 {
-                large.pop();
-                small.push(l);
-            }
+/// The bins of an alias table for non-negative weights with a positive sum (at most 2^32 of
+/// them).
+fn alias_bins(weights: &[f64]) -> Vec<AliasBin> {
+    let n = weights.len();
+    let total: f64 = weights.iter().sum();
+    // Each weight as a multiple of the mean: a bin holds exactly 1.
+    let mut scaled: Vec<f64> = weights.iter().map(|w| w * n as f64 / total).collect();
+    let mut bins = vec![AliasBin { keep: 1.0, alias: 0 }; n];
+    let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
+    while let (Some(&s), Some(&l)) = (small.last(), large.last()) {
+        small.pop();
+        bins[s] = AliasBin { keep: scaled[s] as f32, alias: l as u32 };
+        // The large outcome fills the rest of bin s.
+        scaled[l] -= 1.0 - scaled[s];
+        if scaled[l] < 1.0 {
+            large.pop();
+            small.push(l);
         }
-        // What is left holds 1 up to rounding: those bins keep their own outcome (keep = 1).
-        AliasTable { bins }
     }
+    // What is left holds 1 up to rounding: those bins keep their own outcome (keep = 1).
+    bins
+}
 
-    /// An outcome for `u` in [0, 1), and `u` rescaled to [0, 1) within the part of the bin that
-    /// chose it (a second uniform number for free).
-    fn sample(&self, u: f64) -> (usize, f64) {
-        let x = u * self.bins.len() as f64;
-        let i = (x as usize).min(self.bins.len() - 1);
-        let (f, bin) = (x - i as f64, self.bins[i]);
-        let keep = bin.keep as f64;
-        let (outcome, rest) = if f < keep { (i, f / keep) } else { (bin.alias as usize, (f - keep) / (1.0 - keep)) };
-        (outcome, rest.clamp(0.0, 1.0 - f64::EPSILON))
-    }
+/// An outcome drawn from the alias table whose bin i is `bin(i)` (`n` bins) for `u` in [0, 1),
+/// and `u` rescaled to [0, 1) within the part of the bin that chose it (a second uniform number
+/// for free).
+fn alias_sample(n: usize, bin: impl Fn(usize) -> AliasBin, u: f64) -> (usize, f64) {
+    let x = u * n as f64;
+    let i = (x as usize).min(n - 1);
+    let (f, bin) = (x - i as f64, bin(i));
+    let keep = bin.keep as f64;
+    let (outcome, rest) = if f < keep { (i, f / keep) } else { (bin.alias as usize, (f - keep) / (1.0 - keep)) };
+    (outcome, rest.clamp(0.0, 1.0 - f64::EPSILON))
 }
 
 /// Where the radiance of the sky comes from.
@@ -144,6 +154,11 @@ impl Lights {
             _ => return None,
         };
         Some(LightSample { pdf: s.pdf * p, ..s })
+    }
+
+    /// Whether the environment is an image (rather than a constant color, or none).
+    pub fn has_map(&self) -> bool {
+        matches!(self.environment, Some(Environment::Map(_)))
     }
 
     /// Densities with which [`Lights::sample`] draws `d` from the environment and from the sun,
@@ -208,12 +223,19 @@ impl EnvMap {
             .map(|(i, t)| t.luminance() * ((0.5 - ((i / width) as f64 + 0.5) / height as f64) * PI).cos())
             .collect();
         let total: f64 = weights.iter().sum();
-        let (probability, alias) = if total > 0.0 {
-            (weights.iter().map(|w| w / total).collect(), Some(AliasTable::new(&weights)))
-        } else {
-            (vec![0.0; weights.len()], None)
-        };
-        EnvMap { width, height, texels, probability, alias, total, rotation: rotation_deg.to_radians() }
+        let bins =
+            if total > 0.0 { alias_bins(&weights) } else { vec![AliasBin { keep: 1.0, alias: 0 }; weights.len()] };
+        let texels = texels
+            .iter()
+            .zip(&weights)
+            .zip(bins)
+            .map(|((t, w), bin)| Texel {
+                radiance: t.0.map(|c| c as f32),
+                probability: if total > 0.0 { (w / total) as f32 } else { 0.0 },
+                bin,
+            })
+            .collect();
+        EnvMap { width, height, texels, total, rotation: rotation_deg.to_radians() }
     }
 
     /// Continuous map coordinates (u right, v down, both in [0, 1)) of a world direction.
@@ -242,7 +264,7 @@ impl EnvMap {
 
     fn radiance(&self, d: DVec3) -> Rgb {
         let (u, v) = self.uv(d);
-        self.texels[self.texel(u, v)]
+        self.texels[self.texel(u, v)].radiance()
     }
 
     /// Density per solid angle: the texel's share of the weight, spread uniformly over its (u, v)
@@ -254,7 +276,7 @@ impl EnvMap {
 
     /// The density per solid angle at map row coordinate `v` in texel `i`.
     fn texel_pdf(&self, i: usize, v: f64) -> f64 {
-        let p_uv = self.probability[i] * (self.width * self.height) as f64;
+        let p_uv = self.texels[i].probability as f64 * (self.width * self.height) as f64;
         let cos_e = ((0.5 - v) * PI).cos();
         if cos_e <= 0.0 { 0.0 } else { p_uv / (2.0 * PI * PI * cos_e) }
     }
@@ -262,11 +284,15 @@ impl EnvMap {
     /// A texel drawn by its probability, then a point uniform in it; its radiance and pdf are the
     /// texel's own (no lookup of the direction back into the map).
     fn sample(&self, u: [f64; 2]) -> Option<LightSample> {
-        let (i, ry) = self.alias.as_ref()?.sample(u[0]);
+        if self.total <= 0.0 {
+            return None;
+        }
+        let (i, ry) = alias_sample(self.texels.len(), |i| self.texels[i].bin, u[0]);
         let (x, y) = (i % self.width, i / self.width);
         let (mu, mv) = ((x as f64 + u[1]) / self.width as f64, (y as f64 + ry) / self.height as f64);
         let pdf = self.texel_pdf(i, mv);
-        (pdf > 0.0).then(|| LightSample { wi: self.direction(mu, mv), radiance: self.texels[i], pdf, delta: false })
+        let radiance = self.texels[i].radiance();
+        (pdf > 0.0).then(|| LightSample { wi: self.direction(mu, mv), radiance, pdf, delta: false })
     }
 }
 
@@ -410,10 +436,10 @@ mod tests {
             vec![0.0, 5.0, 0.0, 1e-9, 1.0],
             (0..1000).map(|i| ((i * 7919) % 101) as f64 * if i % 13 == 0 { 100.0 } else { 1.0 }).collect(),
         ] {
-            let table = AliasTable::new(&weights);
+            let bins = alias_bins(&weights);
             let n = weights.len() as f64;
             let mut got = vec![0.0; weights.len()];
-            for (i, bin) in table.bins.iter().enumerate() {
+            for (i, bin) in bins.iter().enumerate() {
                 got[i] += bin.keep as f64 / n;
                 got[bin.alias as usize] += (1.0 - bin.keep as f64) / n;
             }
@@ -423,7 +449,7 @@ mod tests {
             }
             // Draws land on outcomes with weight, and the rescaled number stays in [0, 1).
             for k in 0..10_000 {
-                let (i, rest) = table.sample((k as f64 + 0.5) / 10_000.0);
+                let (i, rest) = alias_sample(bins.len(), |i| bins[i], (k as f64 + 0.5) / 10_000.0);
                 assert!(weights[i] > 0.0 && (0.0..1.0).contains(&rest), "{i} {rest}");
             }
         }

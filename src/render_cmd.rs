@@ -52,7 +52,8 @@ pub struct RenderArgs {
     /// Shadows in the dual integrator (default: the scene's, else lookup).
     #[arg(long, value_enum)]
     pub shadows: Option<ShadowMode>,
-    /// Light samples per camera hit (dual integrator; default: the scene's, else 1).
+    /// Light samples per camera hit (dual integrator; default: the scene's, else 4 under an
+    /// environment map and 1 otherwise).
     #[arg(long)]
     pub light_samples: Option<u32>,
     /// Image width in pixels.
@@ -102,7 +103,7 @@ pub fn scene_file(args: &RenderArgs) -> Result<SceneFile> {
     file.dual.d_b = args.d_b.unwrap_or(file.dual.d_b);
     file.dual.model = args.model.unwrap_or(file.dual.model);
     file.dual.shadows = args.shadows.unwrap_or(file.dual.shadows);
-    file.dual.light_samples = args.light_samples.unwrap_or(file.dual.light_samples);
+    file.dual.light_samples = args.light_samples.or(file.dual.light_samples);
     file.camera.width = args.width.unwrap_or(file.camera.width);
     file.camera.height = args.height.unwrap_or(file.camera.height);
     Ok(file)
@@ -184,7 +185,7 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
                 Some(lookup) => Shadows::Lookup(lookup),
                 None => Shadows::Rays,
             },
-            light_samples: d.light_samples,
+            light_samples: d.light_samples(&scene.lights),
         };
         return Ok(render(&scene.camera, &dual, spp, seed, progress, scene.render.terms));
     }

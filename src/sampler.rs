@@ -77,18 +77,27 @@ fn owen_scramble(v: u32, seed: u32) -> u32 {
     flip_by_lower_bits(v.reverse_bits(), seed).reverse_bits()
 }
 
+/// Direction numbers of the Sobol sequence's second dimension: its generator matrix is Pascal's
+/// triangle mod 2, so each is the previous one xor itself shifted by one.
+const SECOND: [u32; 32] = {
+    let mut v = [0u32; 32];
+    v[0] = 1 << 31;
+    let mut k = 1;
+    while k < 32 {
+        v[k] = v[k - 1] ^ (v[k - 1] >> 1);
+        k += 1;
+    }
+    v
+};
+
 /// The first two dimensions of the Sobol sequence at index `i`, as 32-bit fractions: the van
-/// der Corput sequence and the second dimension, whose generator matrix is Pascal's triangle
-/// mod 2 (each direction number is the previous one xor itself shifted by one). Together a
-/// (0, 2)-sequence: every aligned block of 2^m points is a (0, m, 2)-net.
+/// der Corput sequence and the second dimension (the direction numbers of the index's set bits,
+/// xored). Together a (0, 2)-sequence: every aligned block of 2^m points is a (0, m, 2)-net.
 fn sobol_2d(i: u32) -> [u32; 2] {
-    let (mut second, mut v, mut n) = (0u32, 1u32 << 31, i);
+    let (mut second, mut n) = (0u32, i);
     while n != 0 {
-        if n & 1 != 0 {
-            second ^= v;
-        }
-        n >>= 1;
-        v ^= v >> 1;
+        second ^= SECOND[n.trailing_zeros() as usize];
+        n &= n - 1;
     }
     [i.reverse_bits(), second]
 }
@@ -191,26 +200,45 @@ mod tests {
             .collect()
     }
 
+    /// Every elementary interval of area 2^-m (2^k x 2^(m-k) cells) holds exactly one of the
+    /// 2^m points (Niederreiter's (0, m, 2)-net).
+    fn assert_net(points: &[[f64; 2]], m: usize, what: &str) {
+        for k in 0..=m {
+            let (nx, ny) = (1usize << k, 1usize << (m - k));
+            let mut count = vec![0; points.len()];
+            for p in points {
+                assert!(p.iter().all(|c| (0.0..1.0).contains(c)), "{what}: {p:?}");
+                count[(p[1] * ny as f64) as usize * nx + (p[0] * nx as f64) as usize] += 1;
+            }
+            assert!(count.iter().all(|&c| c == 1), "{what}, {nx}x{ny} cells: {count:?}");
+        }
+    }
+
     #[test]
     fn each_request_is_a_scrambled_0_m_2_net() {
-        // Every elementary interval of area 2^-m (2^k x 2^(m-k) cells) holds exactly one of the
-        // first 2^m samples, for every request, pixel and m (Niederreiter's (0, m, 2)-net).
+        // For every request, pixel and m, the first 2^m samples.
         for (seed, pixel) in [(0, 0), (7, 12_345), (u64::MAX, 3)] {
             let mut sampler = PixelSampler::new(seed, pixel);
             for skip in [0, 1, 5] {
                 for m in 0..=8 {
-                    let n = 1u32 << m;
-                    let pts = points(&mut sampler, n, skip);
-                    for k in 0..=m {
-                        let (nx, ny) = (1usize << k, 1usize << (m - k));
-                        let mut count = vec![0; n as usize];
-                        for p in &pts {
-                            assert!(p.iter().all(|c| (0.0..1.0).contains(c)), "{p:?}");
-                            count[(p[1] * ny as f64) as usize * nx + (p[0] * nx as f64) as usize] += 1;
-                        }
-                        assert!(count.iter().all(|&c| c == 1), "seed {seed}, request {skip}, {nx}x{ny}: {count:?}");
-                    }
+                    assert_net(&points(&mut sampler, 1 << m, skip), m, &format!("seed {seed}, request {skip}"));
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn pixel_positions_are_a_shifted_0_m_2_net() {
+        for pixel in [0, 12_345] {
+            let mut sampler = PixelSampler::new(5, pixel);
+            for m in 0..=8 {
+                let pts: Vec<[f64; 2]> = (0..1 << m)
+                    .map(|i| {
+                        sampler.start(i);
+                        sampler.pixel_position()
+                    })
+                    .collect();
+                assert_net(&pts, m, &format!("pixel {pixel}"));
             }
         }
     }
@@ -258,6 +286,35 @@ mod tests {
         for (a, b) in [(0, 1), (0, 2), (1, 2), (0, 3)] {
             let cov = values.iter().map(|v| (v[a] - 0.5) * (v[b] - 0.5)).sum::<f64>() / n;
             assert!((cov * 12.0).abs() < 0.03, "dimensions {a} and {b}: correlation {}", cov * 12.0);
+        }
+    }
+
+    #[test]
+    fn split_sub_samples_are_stratified_and_continue_the_sample() {
+        // The k sub-samples of one sample form a (0, m, 2)-net of their own for k = 2^m, for
+        // every sample; they read point i k + j of the same sequence, so one sample split in k
+        // draws what k unsplit samples i k .. i k + k - 1 would; and the request after the split
+        // is the sample's next request, as without a split.
+        let (pixel, k) = (77, 8u32);
+        for i in [0u32, 1, 5, 1000] {
+            let mut s = PixelSampler::new(2, pixel);
+            s.start(i);
+            s.pixel_position();
+            let mut pts = Vec::new();
+            s.split(k, &mut |sub| pts.push(sub.get_2d()));
+            let after = s.get_1d();
+            assert_net(&pts, 3, &format!("sample {i}"));
+            let mut unsplit = PixelSampler::new(2, pixel);
+            for (j, p) in pts.iter().enumerate() {
+                unsplit.start(i * k + j as u32);
+                unsplit.pixel_position();
+                assert_eq!(*p, unsplit.get_2d());
+            }
+            let mut plain = PixelSampler::new(2, pixel);
+            plain.start(i);
+            plain.pixel_position();
+            plain.get_2d();
+            assert_eq!(after, plain.get_1d(), "the request after a split is the sample's next");
         }
     }
 

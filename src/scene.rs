@@ -182,8 +182,21 @@ pub struct DualSpec {
     /// The lookup's resolutions.
     pub lookup: LookupSettings,
     /// Direction samples per camera hit, each a light sample and a sample of F's own sampler,
-    /// stratified together: one camera ray and the fiber's per-hit state serve them all.
-    pub light_samples: u32,
+    /// stratified together: one camera ray and the fiber's per-hit state serve them all
+    /// (default: [`DualSpec::light_samples`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub light_samples: Option<u32>,
+}
+
+impl DualSpec {
+    /// Light samples per camera hit: the scene's, else 4 under an environment map and 1 under a
+    /// sun or a constant sky. Under a map most of a `dual` sample's noise is where its light
+    /// direction falls, which more directions per camera ray average away for less than more
+    /// camera rays cost; under a sun's small disc the noise is mostly which fibers the camera ray
+    /// hits, and more light samples only cost time (README, "Light samples per camera hit").
+    pub fn light_samples(&self, lights: &Lights) -> u32 {
+        self.light_samples.unwrap_or(if lights.has_map() { 4 } else { 1 })
+    }
 }
 
 /// How `dual` finds what lies between a shading point and a light (see [`crate::dual::Shadows`]).
@@ -206,7 +219,7 @@ impl Default for DualSpec {
             density_grid: None,
             shadows: ShadowMode::Lookup,
             lookup: LookupSettings::default(),
-            light_samples: 1,
+            light_samples: None,
         }
     }
 }
@@ -354,14 +367,11 @@ impl SceneFile {
             ensure!((0.0..=1.0).contains(&v), "{name} must be in [0, 1], got {v}");
         }
         d.lookup.validate()?;
-        ensure!((1..=256).contains(&d.light_samples), "dual.light_samples must be in 1..=256, got {}", d.light_samples);
-        // Sub-sample j of sample i reads point i k + j of 32-bit sequences (sampler.rs).
-        ensure!(
-            r.spp as u64 * d.light_samples as u64 <= 1 << 32,
-            "render.spp x dual.light_samples must be at most 2^32, got {} x {}",
-            r.spp,
-            d.light_samples
-        );
+        if let Some(k) = d.light_samples {
+            ensure!((1..=256).contains(&k), "dual.light_samples must be in 1..=256, got {k}");
+        }
+        // Sub-sample j of sample i reads point i k + j (k <= 256) of 32-bit sequences (sampler.rs).
+        ensure!(r.spp <= 1 << 24, "render.spp must be at most 2^24, got {}", r.spp);
         if d.shadows == ShadowMode::Lookup && d.model.transmittance_kind() == Transmittance::Fibers {
             bail!("dual.model `fibers` counts the fibers along each shadow ray, so it needs dual.shadows \"rays\"");
         }

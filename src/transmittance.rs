@@ -32,7 +32,7 @@ use crate::light::Lights;
 use anyhow::ensure;
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
-use precompute::conventions::{direction, phi, sin_cos_theta};
+use precompute::conventions::direction;
 use precompute::density::DensityGrid;
 use precompute::strands::{Segment, Strands};
 use rand::{Rng, SeedableRng};
@@ -362,11 +362,11 @@ impl ForwardLookup {
     }
 
     /// (lit fraction, fibers crossed) from segment `segment`, at offset `h` across it, toward the
-    /// unit direction `d` (world), which is `wi` in the hit's fiber frame: the sun's entry for
-    /// directions in its disc, the environment's for any other; `None` where there is no entry
-    /// (a segment no camera ray hit while the lookup was built, or a direction no light shines
-    /// from).
-    pub fn toward(&self, segment: u32, h: f64, d: DVec3, wi: DVec3) -> Option<(f64, f64)> {
+    /// unit direction `d` (world), which has inclination `theta` and azimuth `phi` in the hit's
+    /// fiber frame: the sun's entry for directions in its disc, the environment's for any other;
+    /// `None` where there is no entry (a segment no camera ray hit while the lookup was built, or
+    /// a direction no light shines from).
+    pub fn toward(&self, segment: u32, h: f64, d: DVec3, theta: f64, phi: f64) -> Option<(f64, f64)> {
         let i = *self.rows.get(segment as usize)?;
         if i == u32::MAX {
             return None;
@@ -378,7 +378,6 @@ impl ForwardLookup {
             return Some((sun.lit[i * SUN_BINS + sun_bin(h)] as f64, sun.count[i] as f64));
         }
         let env = self.env.as_ref()?;
-        let (theta, phi) = (sin_cos_theta(wi).0.asin(), phi(wi));
         let (words, counts) = (&env.lit[i * env.words..], &env.counts[i * env.map.len()..]);
         let (mut lit, mut q) = (0.0, 0.0);
         for (k, w) in env.map.weights(theta, phi) {
@@ -501,13 +500,14 @@ fn chunks<T, const N: usize>(r: &mut &[u8], count: usize, from: fn([u8; N]) -> T
 #[cfg(test)]
 mod tests {
     use super::*;
+    use precompute::conventions::{phi, theta};
 
     #[test]
     fn angle_map_interpolates_its_vertices_and_weights_sum_to_one() {
         let map = AngleMap { rows: 6, columns: 8 };
         for k in 0..map.len() {
             let d = map.direction(k);
-            let w = map.weights(sin_cos_theta(d).0.asin(), phi(d));
+            let w = map.weights(theta(d), phi(d));
             assert!((w.iter().map(|x| x.1).sum::<f64>() - 1.0).abs() < 1e-12);
             // The vertex itself, or one of the same direction (a pole), gets all the weight.
             let at: DVec3 = w.iter().map(|&(v, wv)| map.direction(v) * wv).sum();

@@ -31,7 +31,15 @@ fn without_multiple_scattering_dual_is_single() {
         let mut dual = single.clone();
         dual.render.integrator = IntegratorKind::Dual;
         // Shadow rays: the lookup's shadows are soft, single scattering's are not.
-        dual.dual = DualSpec { d_f: 0.0, d_b: 0.0, model, shadows: ShadowMode::Rays, ..DualSpec::default() };
+        // One light sample per camera hit, as `single` draws.
+        dual.dual = DualSpec {
+            d_f: 0.0,
+            d_b: 0.0,
+            model,
+            shadows: ShadowMode::Rays,
+            light_samples: Some(1),
+            ..DualSpec::default()
+        };
         let (a, b) = (render(&single), render(&dual));
         assert!(a.alpha == b.alpha);
         let worst = a
@@ -68,14 +76,17 @@ fn paired_difference(a: &Film, b: &Film) -> (f64, f64) {
 fn sampling_strategies_converge_to_the_same_image() {
     // Blond and brown curls under an HDRI: importance (the MIS mixture), uniform and light-only
     // sampling must agree on the mean over hair pixels within 0.5%, with a standard error small
-    // enough (< 0.15%) that a 0.5% bias could not hide.
-    // Same seed and spp for all, so each pixel's difference is paired sample by sample. Both under
-    // the studio HDRI: the courtyard's sun makes uniform sampling ~6x noisier (se 0.35% at this
-    // spp), too noisy to judge 0.5% within the CI budget.
+    // enough (< 0.15%) that a 0.5% bias could not hide. Same seed and spp for all, so each
+    // pixel's camera rays and light directions are paired. Both under the studio HDRI: the
+    // courtyard's sun makes uniform sampling ~6x noisier (se 0.35% at this spp), too noisy to
+    // judge 0.5% within the CI budget. Four light samples per camera hit (the default under a
+    // map); one light sample per hit at four times the spp is checked too, against 4 standard
+    // errors (its camera rays are not paired, so its error is larger: 0.09-0.25% measured).
     for name in ["blond", "brown"] {
-        let mut base = bundled(name, 40, 8192);
+        let mut base = bundled(name, 40, 2560);
         base.lights = bundled("blond", 1, 1).lights;
         base.render.integrator = IntegratorKind::Dual;
+        base.render.sampling = Some(Sampling::Importance);
         let reference = render(&base);
         for sampling in [Sampling::Uniform, Sampling::Light] {
             let mut other = base.clone();
@@ -85,6 +96,11 @@ fn sampling_strategies_converge_to_the_same_image() {
             assert!(se < 1.5e-3, "{name} {sampling:?}: standard error {se} too large to judge 0.5%");
             assert!(diff.abs() < 5e-3, "{name} {sampling:?} differs from importance by {diff}");
         }
+        let mut one = base.clone();
+        (one.render.spp, one.dual.light_samples) = (4 * base.render.spp, Some(1));
+        let (diff, se) = paired_difference(&reference, &render(&one));
+        println!("{name}: one light sample per hit vs four: {:+.3}% +- {:.3}%", 100.0 * diff, 100.0 * se);
+        assert!(se < 3e-3 && diff.abs() < 4.0 * se, "{name}: one light sample per hit differs by {diff} +- {se}");
     }
 }
 

@@ -3,7 +3,7 @@
 
 use dualhair::transmittance::{ForwardLookup, LookupSettings};
 use glam::DVec3;
-use precompute::conventions::{h_offset, uniform_sphere};
+use precompute::conventions::{h_offset, phi, theta, uniform_sphere};
 use precompute::fiber::{Chiang, FiberHit, FiberModel};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -50,7 +50,7 @@ fn compare(settings: LookupSettings) -> [(f64, f64); 4] {
             };
             hits += 1;
             // Segments no marking ray hit have no entries; `dual` traces rays for them.
-            let Some((lit, _)) = lookup.toward(hit.segment, h, sun, local(sun)) else {
+            let Some((lit, _)) = lookup.toward(hit.segment, h, sun, theta(local(sun)), phi(local(sun))) else {
                 missing += 1;
                 continue;
             };
@@ -59,13 +59,13 @@ fn compare(settings: LookupSettings) -> [(f64, f64); 4] {
             for _ in 0..16 {
                 if let Some(s) = fiber.sample(rng.random()) {
                     let d = world(s.wi);
-                    let (lit, n) = lookup.toward(hit.segment, h, d, s.wi).unwrap();
+                    let (lit, n) = lookup.toward(hit.segment, h, d, theta(s.wi), phi(s.wi)).unwrap();
                     let weight = s.weight().luminance();
                     add(1, weight, lit, escapes(d));
                     add(3, weight, n, grid.fibers_crossed(from.as_dvec3(), d, f64::INFINITY));
                 }
                 let d = uniform_sphere(rng.random());
-                add(2, 1.0, lookup.toward(hit.segment, h, d, local(d)).unwrap().0, escapes(d));
+                add(2, 1.0, lookup.toward(hit.segment, h, d, theta(local(d)), phi(local(d))).unwrap().0, escapes(d));
             }
         }
     }

@@ -48,6 +48,11 @@ pub fn sin_cos_theta(w: DVec3) -> (f64, f64) {
     (s, (1.0 - s * s).max(0.0).sqrt())
 }
 
+/// Inclination `theta` of a unit direction.
+pub fn theta(w: DVec3) -> f64 {
+    sin_cos_theta(w).0.asin()
+}
+
 /// Azimuth `phi` of a direction in the normal plane.
 pub fn phi(w: DVec3) -> f64 {
     w.z.atan2(w.y)

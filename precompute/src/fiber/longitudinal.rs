@@ -26,8 +26,16 @@ pub struct Longitudinal {
 
 impl Longitudinal {
     pub fn new(v: f64) -> Longitudinal {
-        // Below v = 0.05, e^(-2/v) < 5e-18 and 1 - e^(-2/v) rounds to 1: expm1 can be skipped.
-        let tail = if v < 0.05 { 1.0 } else { -(-2.0 / v).exp_m1() };
+        // 1 - e^(-2/v): below v = 0.05 it rounds to 1; up to v = 2 (2/v >= 1) the subtraction
+        // loses at most one bit, so exp serves (expm1 costs about twice as much); beyond, expm1
+        // keeps the precision.
+        let tail = if v < 0.05 {
+            1.0
+        } else if v <= 2.0 {
+            1.0 - (-2.0 / v).exp()
+        } else {
+            -(-2.0 / v).exp_m1()
+        };
         Longitudinal { v, norm: 1.0 / (v * tail) }
     }
 

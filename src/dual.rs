@@ -143,18 +143,20 @@ impl DualModel {
     }
 
     /// T_f / d_f through `n` fibers (a real count or the grid's mean, per `transmittance`), per
-    /// channel of a_f and a_b.
-    pub fn transmittance(self, a_f: Rgb, a_b: Rgb, n: f64) -> Rgb {
+    /// channel of a_f and a_b, and the count n' the spread sigma_f^2 = n' beta_f^2 uses: n, or for
+    /// a Poisson count given N >= 1 its conditional mean n / (1 - e^(-n)).
+    pub fn transmittance(self, a_f: Rgb, a_b: Rgb, n: f64) -> (Rgb, f64) {
         let a = a_f.zip(a_b, |f, b| self.per_fiber(f, b));
         match self.transmittance_kind() {
-            Transmittance::Grid | Transmittance::Fibers => a.map(|a| a.powf(n)),
+            Transmittance::Grid | Transmittance::Fibers => (a.map(|a| a.powf(n)), n),
             // e^-n (e^(n a) - 1) / (1 - e^-n): in expm1 form for small n a (exact as n -> 0,
             // where one fiber transmits a), else as written (no overflow for large n).
             Transmittance::Poisson if n > 0.0 => {
                 let (none, some) = ((-n).exp(), -(-n).exp_m1());
-                a.map(|a| if n * a < 1.0 { none * (n * a).exp_m1() } else { (-n * (1.0 - a)).exp() - none } / some)
+                let t = a.map(|a| if n * a < 1.0 { none * (n * a).exp_m1() } else { (-n * (1.0 - a)).exp() - none });
+                (t / some, n / some)
             }
-            Transmittance::Poisson => a,
+            Transmittance::Poisson => (a, 1.0),
         }
     }
 
@@ -182,16 +184,6 @@ impl DualModel {
         }
         let s = (1.0 - a_f).max(0.0);
         passed_on * (a_b / (s + (s * s - a_b * a_b).max(0.0).sqrt())).min(1.0)
-    }
-
-    /// The count the spread sigma_f^2 = n beta_f^2 uses: for a Poisson count given N >= 1, its
-    /// conditional mean n / (1 - e^(-n)).
-    pub fn mean_count(self, n: f64) -> f64 {
-        match self.transmittance_kind() {
-            Transmittance::Poisson if n > 0.0 => n / -(-n).exp_m1(),
-            Transmittance::Poisson => 1.0,
-            _ => n,
-        }
     }
 }
 
@@ -406,8 +398,7 @@ where
         }
         let (model, row) = (dual.model, &inc.row);
         let a_f = row[Quantity::AF as usize];
-        let t_f = model.transmittance(a_f, row[Quantity::AB as usize], n);
-        let mean_n = model.mean_count(n);
+        let (t_f, mean_n) = model.transmittance(a_f, row[Quantity::AB as usize], n);
         let var_f = Rgb(row[Quantity::BetaF as usize].0.map(|b| mean_n * b * b));
         let scale = t_f * if model.d_f_twice() { dual.d_f * dual.d_f } else { dual.d_f };
         let mut split = Split { forward: scale * f_spread(var_f * 4.0), ..Split::default() };
@@ -441,8 +432,13 @@ where
         }))
     }
 
-    /// A direction (local) from F's sampler and its density; `None` for `light` sampling.
-    fn sample(&self, u: [f64; 4]) -> Option<(DVec3, f64)> {
+    /// A direction (local) from F's sampler and its density; `None` for `light` sampling, which
+    /// draws nothing.
+    fn sample(&self, sampler: &mut impl Sampler) -> Option<(DVec3, f64)> {
+        if self.dual.sampling == Sampling::Light {
+            return None;
+        }
+        let u = sampler.get_4d();
         match self.dual.sampling {
             Sampling::Light => None,
             // (u[1], u[2]) is the stratified pair of `Sampler::get_4d`.
@@ -505,10 +501,9 @@ where
         let k = self.light_samples;
         sampler.split(k, &mut |sampler| {
             sample_lights(self.lights, sampler, |s| shading.light(s, &mut radiance, &mut terms));
-            // Drawn even for light sampling alone, so that every strategy's requests stay in step
-            // (renders with the same seed then differ only through the strategy).
-            let u = sampler.get_4d();
-            if let Some((wi, pdf)) = shading.sample(u) {
+            // F's own sampler makes the last request, so every strategy draws the same light
+            // directions (renders with the same seed then differ only through the strategy).
+            if let Some((wi, pdf)) = shading.sample(sampler) {
                 if pdf > 0.0 {
                     let d = shading.frame.to_world(wi).normalize();
                     let weight = seen_lights(self.lights, d, pdf) / pdf;
@@ -544,13 +539,14 @@ mod tests {
         for n in [0.05f64, 0.7, 3.0, 12.0, 40.0] {
             for a in [0.0f64, 0.04, 0.35, 0.72, 1.0] {
                 let direct = (1..400).map(|k| poisson(n, k) * a.powi(k as i32)).sum::<f64>() / (1.0 - (-n).exp());
-                let t = DualModel::Poisson.transmittance(Rgb::splat(a), Rgb::splat(0.1), n).0[0];
+                let t = DualModel::Poisson.transmittance(Rgb::splat(a), Rgb::splat(0.1), n).0.0[0];
                 assert!((t - direct).abs() < 1e-12 * direct.max(1e-300) + 1e-15, "n {n}, a {a}: {t} vs {direct}");
             }
             let mean = (1..400).map(|k| k as f64 * poisson(n, k)).sum::<f64>() / (1.0 - (-n).exp());
-            assert!((DualModel::Poisson.mean_count(n) - mean).abs() < 1e-10 * mean);
+            let mean_count = DualModel::Poisson.transmittance(Rgb::splat(0.5), Rgb::splat(0.1), n).1;
+            assert!((mean_count - mean).abs() < 1e-10 * mean);
         }
-        let t = |model: DualModel, a: f64, n: f64| model.transmittance(Rgb::splat(a), Rgb::splat(0.1), n).0[0];
+        let t = |model: DualModel, a: f64, n: f64| model.transmittance(Rgb::splat(a), Rgb::splat(0.1), n).0.0[0];
         assert!((t(DualModel::Poisson, 0.6, 1e-9) - 0.6).abs() < 1e-8);
         assert!((t(DualModel::Poisson, 0.6, 0.0) - 0.6).abs() < 1e-15);
         let deep = t(DualModel::Poisson, 0.9, 1000.0);

@@ -1,7 +1,9 @@
 //! Renderer benchmark: BVH build time and ray rates on a groom, then camera samples/s of `path`,
-//! `dual` with shadow rays and `dual` with the forward-transmittance lookup (and the lookup's
-//! build time and memory) on the bundled swatches and, given one, the groom; and the samples/s of
-//! camera rays alone, the ceiling of any integrator that traces one camera ray per sample.
+//! `dual` with shadow rays and `dual` with the forward-transmittance lookup, each `dual` with one
+//! light sample per camera hit as a path has one per vertex (and the lookup's build time and
+//! memory), on the bundled swatches and, given one, the groom; the samples/s of camera rays alone,
+//! the ceiling of any integrator that traces one camera ray per sample; and `dual` with the
+//! lookup at its default light samples per hit (4 under an environment map), in camera samples/s.
 //! `cargo bench --bench render -- [HAIR_FILE]`; without a file it uses a generated scalp of 30,000
 //! strands for the ray rates. All threads of the machine are used. With a Python that has `bpy`
 //! (`DUALHAIR_BPY_PYTHON`, else `.venv-cycles/bin/python`), Blender Cycles path traces each scene
@@ -157,25 +159,30 @@ fn main() {
         println!("(no Python with bpy: Cycles is not measured)");
     }
     println!(
-        "| scene | path | dual (rays) | dual (lookup) | lookup / path | lookup / rays | camera rays alone / path | lookup build | lookup memory | Cycles path | path / Cycles |"
+        "| scene | path | dual (rays) | dual (lookup) | lookup / path | lookup / rays | camera rays alone / path | dual (lookup, default light samples) | lookup build | lookup memory | Cycles path | path / Cycles |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (name, mut file) in scenes {
         file.render.spp = spp;
         let mut rates = Vec::new();
         let mut build = (0.0, 0);
-        for (integrator, shadows) in [
-            (IntegratorKind::Path, ShadowMode::Rays),
-            (IntegratorKind::Dual, ShadowMode::Rays),
-            (IntegratorKind::Dual, ShadowMode::Lookup),
+        // One light sample per camera hit, as a path samples one light per vertex; then the
+        // default (`DualSpec::light_samples`), in camera samples/s.
+        for (integrator, shadows, light_samples) in [
+            (IntegratorKind::Path, ShadowMode::Rays, None),
+            (IntegratorKind::Dual, ShadowMode::Rays, Some(1)),
+            (IntegratorKind::Dual, ShadowMode::Lookup, Some(1)),
+            (IntegratorKind::Dual, ShadowMode::Lookup, None),
         ] {
             file.render.integrator = integrator;
             file.dual.shadows = shadows;
+            file.dual.light_samples = light_samples;
             let scene = file.build().unwrap();
             // Tables, grid and lookup first, so that only rendering is timed.
             let inputs = DualInputs::load(&scene, &cache, false).unwrap();
             if let Some(DualInputs { grid, .. }) = &inputs
                 && shadows == ShadowMode::Lookup
+                && light_samples.is_some()
             {
                 let start = Instant::now();
                 let s = &scene;
@@ -197,13 +204,15 @@ fn main() {
         file.render.integrator = IntegratorKind::Path;
         let cycles = python.as_deref().map(|p| cycles_rate(p, &file, 4 * spp));
         println!(
-            "| {name} | {:.3} M/s | {:.3} M/s | {:.3} M/s | {:.1}x | {:.1}x | {:.1}x | {:.1} s | {:.1} MB | {} | {} |",
+            "| {name} | {:.3} M/s | {:.3} M/s | {:.3} M/s | {:.1}x | {:.1}x | {:.1}x | {:.3} M/s ({}) | {:.1} s | {:.1} MB | {} | {} |",
             rates[0],
             rates[1],
             rates[2],
             rates[2] / rates[0],
             rates[2] / rates[1],
             alone / rates[0],
+            rates[3],
+            file.dual.light_samples(&scene.lights),
             build.0,
             build.1 as f64 / 1e6,
             cycles.map_or("-".into(), |c| format!("{c:.3} M/s")),

@@ -40,7 +40,8 @@ pub struct ConvergeArgs {
     /// Scene file (.json) or hair file (.hair); default: scenes/default.json.
     pub scene: Option<PathBuf>,
     /// Methods to compare, INTEGRATOR-SAMPLING, comma separated: dual-importance, dual-uniform,
-    /// dual-light, single-importance, single-uniform, path-importance, path-uniform.
+    /// dual-light, single-importance, single-uniform, path-importance, path-uniform; a `dual`
+    /// method may end in -K for K light samples per camera hit (dual-light-1, dual-light-4).
     #[arg(long, value_delimiter = ',', default_value = "dual-importance,dual-uniform")]
     pub methods: Vec<Method>,
     /// Samples per pixel, comma separated; powers of two give the per-doubling measure.
@@ -86,22 +87,32 @@ pub struct ConvergeArgs {
     pub quiet: bool,
 }
 
-/// An integrator with a direction sampler, written INTEGRATOR-SAMPLING.
+/// An integrator with a direction sampler, written INTEGRATOR-SAMPLING, and for `dual` perhaps
+/// its light samples per camera hit, INTEGRATOR-SAMPLING-K (else the scene's).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub struct Method {
     pub integrator: IntegratorKind,
     pub sampling: Sampling,
+    pub light_samples: Option<u32>,
 }
 
 impl std::str::FromStr for Method {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Method, String> {
-        let (i, smp) = s.split_once('-').ok_or_else(|| format!("`{s}` is not INTEGRATOR-SAMPLING"))?;
+        let (i, rest) = s.split_once('-').ok_or_else(|| format!("`{s}` is not INTEGRATOR-SAMPLING"))?;
+        let (smp, k) = rest.split_once('-').map_or((rest, None), |(smp, k)| (smp, Some(k)));
+        let light_samples = k
+            .map(|k| k.parse().ok().filter(|k| (1..=256).contains(k)).ok_or(format!("`{k}`: light samples must be 1 to 256")))
+            .transpose()?;
         let method = Method {
             integrator: IntegratorKind::from_str(i, true).map_err(|_| format!("`{i}`: no such integrator"))?,
             sampling: Sampling::from_str(smp, true).map_err(|_| format!("`{smp}`: no such sampling"))?,
+            light_samples,
         };
+        if light_samples.is_some() && method.integrator != IntegratorKind::Dual {
+            return Err(format!("`{s}`: light samples per camera hit are for dual only"));
+        }
         if method.integrator == IntegratorKind::Auto {
             return Err("`auto` is no method to compare: name single, dual or path".into());
         }
@@ -117,7 +128,8 @@ impl std::fmt::Display for Method {
         let name = |v: &dyn Fn() -> Option<clap::builder::PossibleValue>| v().map(|p| p.get_name().to_string());
         let i = name(&|| self.integrator.to_possible_value()).unwrap_or_default();
         let s = name(&|| self.sampling.to_possible_value()).unwrap_or_default();
-        write!(f, "{i}-{s}")
+        write!(f, "{i}-{s}")?;
+        self.light_samples.map_or(Ok(()), |k| write!(f, "-{k}"))
     }
 }
 
@@ -169,6 +181,8 @@ fn finished(job: &Job, scene: &str) -> Option<f64> {
 struct Prepared<'a> {
     scene: Scene,
     fingerprint: String,
+    /// The scene's own light samples per camera hit, for methods that do not name theirs.
+    light_samples: Option<u32>,
     cache: &'a Cache,
     dual: Option<DualInputs>,
 }
@@ -180,6 +194,7 @@ fn run_job(job: &Job, prepared: &mut Prepared, aovs: bool) -> Result<(f64, bool)
     if let Some(seconds) = finished(job, fingerprint) {
         return Ok((seconds, true));
     }
+    prepared.scene.dual.light_samples = job.method.light_samples.or(prepared.light_samples);
     let r = &mut prepared.scene.render;
     r.integrator = job.method.integrator;
     r.sampling = Some(job.method.sampling);
@@ -229,6 +244,7 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
     let truth_method = args.truth.unwrap_or(Method {
         integrator: if all_dual { IntegratorKind::Dual } else { IntegratorKind::Path },
         sampling: Sampling::Importance,
+        light_samples: None,
     });
     let truth_spp = args.truth_spp.unwrap_or(8 * max_spp);
     let base_seed = file.render.seed;
@@ -257,7 +273,8 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
         .build()
         .context("cannot start the worker threads")?;
     let cache = Cache::default_location();
-    let mut prepared = Prepared { scene, fingerprint: fingerprint(&file), cache: &cache, dual: None };
+    let light_samples = file.dual.light_samples;
+    let mut prepared = Prepared { scene, fingerprint: fingerprint(&file), light_samples, cache: &cache, dual: None };
     let total: u64 = jobs.iter().map(|j| j.spp as u64).sum::<u64>() + truth_spp as u64;
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(total) };
     bar.set_style(

@@ -103,7 +103,9 @@ impl std::str::FromStr for Method {
         let (i, rest) = s.split_once('-').ok_or_else(|| format!("`{s}` is not INTEGRATOR-SAMPLING"))?;
         let (smp, k) = rest.split_once('-').map_or((rest, None), |(smp, k)| (smp, Some(k)));
         let light_samples = k
-            .map(|k| k.parse().ok().filter(|k| (1..=256).contains(k)).ok_or(format!("`{k}`: light samples must be 1 to 256")))
+            .map(|k| {
+                k.parse().ok().filter(|k| (1..=256).contains(k)).ok_or(format!("`{k}`: light samples must be 1 to 256"))
+            })
             .transpose()?;
         let method = Method {
             integrator: IntegratorKind::from_str(i, true).map_err(|_| format!("`{i}`: no such integrator"))?,

@@ -77,14 +77,23 @@ pub struct Fibers {
 /// distance squared cancels against the radius squared.
 fn enter_capsule(o: DVec3, d: DVec3, c: &Capsule, t_min: f64) -> Option<f64> {
     let ba = c.b - c.a;
+    let r2 = c.r * c.r;
+    let oa = o - c.a;
+    // Most candidates the BVH hands over miss: the distance between the ray's line and the axis's
+    // line, |oa . (d x ba)| / |d x ba|, is then above r. Tested squared and multiplied out, without
+    // the square root and the two divisions of the exact test below (which checks the same
+    // distance), it rejects them for a third of the cost.
+    let n = d.cross(ba);
+    let (n2, m) = (n.length_squared(), oa.dot(n));
+    if n2 > 1e-24 * ba.length_squared() && m * m > r2 * n2 {
+        return None;
+    }
     let len = ba.length();
     let u = ba / len;
-    let r2 = c.r * c.r;
     // Cylinder body: the ray projected on the normal plane of the axis. Both end spheres lie in
     // the infinite cylinder, so a ray that misses it misses the capsule; one that enters it between
     // the end planes enters the capsule there (it is convex); one that enters it beyond an end can
     // only enter the capsule through that end's sphere.
-    let oa = o - c.a;
     let d_perp = d - d.dot(u) * u;
     let a2 = d_perp.length_squared();
     let ends: &[(DVec3, f64, f64)] = if a2 > 1e-24 {

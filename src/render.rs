@@ -1,4 +1,4 @@
-//! The render loop: rows in parallel, one deterministic random stream per pixel.
+//! The render loop: rows in parallel, one deterministic sampler per pixel.
 //!
 //! Each pixel's samples draw their numbers from the pixel's own [`PixelSampler`] (a function of
 //! seed, pixel, sample index and request), and each pixel's sums are accumulated in sample order

@@ -330,15 +330,20 @@ where
         let (sin_i, cos_i) = sin_cos_theta(wi);
         let (theta_i, phi_i) = (sin_i.asin(), phi(wi));
         let dphi = wrap_angle(phi_i - self.phi_o).abs();
-        let row = dual.tables.at(theta_i);
-        let back = if dual.d_b > 0.0 { self.back_lobes(&row) } else { [BackLobe::default(); 3] };
-        let inc = Incoming { wi, sin_i, cos_i, dphi, row, back };
         // The segment's lit fraction toward the light (Zinke et al. 2008's directFraction) weighs
         // F_direct against F_scatter of its mean count n. Without an entry, rays.
         let entry = match dual.shadows {
             Shadows::Lookup(lookup) => lookup.toward(self.segment, self.h, d, theta_i, phi_i),
             Shadows::Rays => None,
         };
+        // Fully lit from the forward half (no backscatter there): F_direct is f_s alone, and the
+        // tables are not read.
+        if entry.is_some_and(|(lit, _)| lit >= 1.0) && (dual.d_b == 0.0 || dphi >= FRAC_PI_2) {
+            return Split { single: self.fiber.eval(wi), ..Split::default() };
+        }
+        let row = dual.tables.at(theta_i);
+        let back = if dual.d_b > 0.0 { self.back_lobes(&row) } else { [BackLobe::default(); 3] };
+        let inc = Incoming { wi, sin_i, cos_i, dphi, row, back };
         let Some((lit, n)) = entry else { return self.f_rays(&inc, d) };
         if lit >= 1.0 {
             return self.direct(&inc, self.fiber.eval(wi));

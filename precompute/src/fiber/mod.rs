@@ -63,7 +63,7 @@ pub trait FiberHit: Send + Sync {
     fn eval(&self, wi: DVec3) -> Rgb;
 
     /// Draws `wi` from four uniform numbers in [0, 1); `None` if no direction can be drawn.
-    /// Renderers stratify (u[1], u[2]) as one pair and (u[0], u[3]) as another: a sampler draws
+    /// Renderers stratify `(u[1], u[2])` as one pair and `(u[0], u[3])` as another: a sampler draws
     /// its main two-dimensional choice (the longitudinal cone, a point on the sphere) from the
     /// first pair.
     fn sample(&self, u: [f64; 4]) -> Option<FiberSample>;

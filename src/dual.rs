@@ -59,7 +59,7 @@ use crate::sampler::Sampler;
 use crate::scene::Sampling;
 use crate::transmittance::ForwardLookup;
 use glam::{DVec3, Vec3};
-use precompute::conventions::{SPHERE, phi, pick, sin_cos_theta, uniform_sphere, wrap_angle};
+use precompute::conventions::{SPHERE, phi, pick, sin_cos_theta, theta, uniform_sphere, wrap_angle};
 use precompute::density::DensityGrid;
 use precompute::fiber::{FiberHit, FiberModel, Longitudinal, SpreadHit};
 use precompute::spectrum::Rgb;
@@ -319,7 +319,7 @@ where
     fn new(dual: &'a DualScattering<'a, M>, hit: &Hit, dir: DVec3) -> Shading<'a, M> {
         let (frame, wo, h) = hit_frame(hit, dir);
         let uniform = DEFENSIVE * dual.d_f.max(dual.d_b);
-        let (theta_o, phi_o) = (sin_cos_theta(wo).0.asin(), phi(wo));
+        let (theta_o, phi_o) = (theta(wo), phi(wo));
         let fiber = dual.fiber.at(wo, h);
         Shading { dual, fiber, frame, theta_o, phi_o, h, from: spawn_point(hit), segment: hit.segment, uniform }
     }
@@ -440,25 +440,24 @@ where
     /// A direction (local) from F's sampler and its density; `None` for `light` sampling, which
     /// draws nothing.
     fn sample(&self, sampler: &mut impl Sampler) -> Option<(DVec3, f64)> {
-        if self.dual.sampling == Sampling::Light {
-            return None;
-        }
+        let importance = match self.dual.sampling {
+            Sampling::Light => return None,
+            Sampling::Uniform => false,
+            Sampling::Importance => true,
+        };
         let u = sampler.get_4d();
-        match self.dual.sampling {
-            Sampling::Light => None,
-            // (u[1], u[2]) is the stratified pair of `Sampler::get_4d`.
-            Sampling::Uniform => Some((uniform_sphere([u[1], u[2]]), 1.0 / SPHERE)),
-            Sampling::Importance => {
-                let (k, u0) = pick(&[1.0 - self.uniform, self.uniform], u[0]);
-                if k == 0 {
-                    // The fiber sampler's own density saves evaluating it again.
-                    let s = self.fiber.sample([u0, u[1], u[2], u[3]])?;
-                    Some((s.wi, self.mixture_pdf(s.pdf)))
-                } else {
-                    let wi = uniform_sphere([u[1], u[2]]);
-                    Some((wi, self.pdf(wi)))
-                }
-            }
+        // (u[1], u[2]) is the stratified pair of `Sampler::get_4d`.
+        if !importance {
+            return Some((uniform_sphere([u[1], u[2]]), 1.0 / SPHERE));
+        }
+        let (k, u0) = pick(&[1.0 - self.uniform, self.uniform], u[0]);
+        if k == 0 {
+            // The fiber sampler's own density saves evaluating it again.
+            let s = self.fiber.sample([u0, u[1], u[2], u[3]])?;
+            Some((s.wi, self.mixture_pdf(s.pdf)))
+        } else {
+            let wi = uniform_sphere([u[1], u[2]]);
+            Some((wi, self.pdf(wi)))
         }
     }
 

@@ -14,9 +14,10 @@
 //!
 //! - the sun: `sun_rays` rays over its disc per bin of the offset h across the fiber (4 bins);
 //!   the lit fraction per bin and the mean n over the rays that are shadowed;
-//! - the environment: one ray and one march per vertex of a map of directions in the segment's
+//! - the environment: one ray per vertex of a map of directions in the segment's
 //!   own fiber frame (design section 3: x along the tangent), `env_theta` x `env_phi` squares of
-//!   inclination theta and azimuth phi; the lit bit per vertex, and n per shadowed vertex.
+//!   inclination theta and azimuth phi; the lit bit per vertex, and n (a grid march) per shadowed
+//!   vertex.
 //!   The map lives in the fiber frame because that is where visibility has its structure: a
 //!   fiber's neighbours lie along it, so directions across the fiber (theta near 0, where f_s
 //!   cos theta_i also peaks) are blocked far more often than directions along it; a world-space

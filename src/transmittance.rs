@@ -13,11 +13,10 @@
 //! segment, spread along it and across it, on the parts the camera sees):
 //!
 //! - the sun: `sun_rays` rays over its disc per bin of the offset h across the fiber (4 bins);
-//!   the lit fraction per bin and the mean n over the rays that are shadowed;
-//! - the environment: one ray per vertex of a map of directions in the segment's
+//!   the lit fraction per bin and the mean n;
+//! - the environment: one ray and one march per vertex of a map of directions in the segment's
 //!   own fiber frame (design section 3: x along the tangent), `env_theta` x `env_phi` squares of
-//!   inclination theta and azimuth phi; the lit bit per vertex, and n (a grid march) per shadowed
-//!   vertex.
+//!   inclination theta and azimuth phi; the lit bit and n per vertex.
 //!   The map lives in the fiber frame because that is where visibility has its structure: a
 //!   fiber's neighbours lie along it, so directions across the fiber (theta near 0, where f_s
 //!   cos theta_i also peaks) are blocked far more often than directions along it; a world-space
@@ -127,8 +126,7 @@ struct SunLookup {
     direction: DVec3,
     /// Directions with a larger cosine to `direction` are the sun's (its disc).
     cos_disc: f64,
-    /// Lit fraction per segment and h bin (`SUN_BINS`), mean n per segment over its shadowed
-    /// rays (n is what F_scatter, the shadowed part, reads).
+    /// Lit fraction per segment and h bin (`SUN_BINS`), mean n per segment.
     lit: Vec<f32>,
     count: Vec<f32>,
 }
@@ -257,7 +255,7 @@ fn shading_points(
 impl ForwardLookup {
     /// Changes whenever `build` measures differently, so that caches of an older build are not
     /// reused (part of the cache key).
-    pub const VERSION: u32 = 4;
+    pub const VERSION: u32 = 3;
 
     /// Precomputes the lookup for the lights of a scene; `progress` shows a bar. Deterministic:
     /// each segment draws from its own random stream.
@@ -300,8 +298,7 @@ impl ForwardLookup {
                 // Sample k takes a point by a stride coprime to their count, to spread them.
                 let point = |k: usize| points[(k * 7919) % SHADING_POINTS].0;
                 let sun = lights.sun.as_ref().map_or((Vec::new(), 0.0), |sun| {
-                    // n over the shadowed rays only (as in `toward`).
-                    let (mut count, mut shadowed) = (0.0, 0);
+                    let mut count = 0.0;
                     let lit = (0..SUN_BINS)
                         .map(|bin| {
                             // A bin without points (hidden from the camera) takes them all.
@@ -315,17 +312,13 @@ impl ForwardLookup {
                             for r in 0..k {
                                 let p = own[(r * 7919) % own.len()];
                                 let d = sun.sample(rng.random()).wi;
-                                if escapes(p, d) {
-                                    lit += 1.0;
-                                } else {
-                                    count += march(p, d);
-                                    shadowed += 1;
-                                }
+                                lit += escapes(p, d) as u8 as f64;
+                                count += march(p, d);
                             }
                             (lit / k as f64) as f32
                         })
                         .collect();
-                    (lit, (count / shadowed.max(1) as f64) as f32)
+                    (lit, (count / (settings.sun_rays as usize * SUN_BINS) as f64) as f32)
                 });
                 let (mut words, mut counts) = (Vec::new(), Vec::new());
                 if let Some(env) = &env {
@@ -335,9 +328,7 @@ impl ForwardLookup {
                         .map(|k| {
                             let (p, d) = (point(k), frame.to_world(env.map.direction(k)));
                             if escapes(p, d) {
-                                // A lit vertex's count is never read (`toward`).
                                 words[k / 64] |= 1 << (k % 64);
-                                return 0;
                             }
                             quantize(march(p, d))
                         })
@@ -388,19 +379,14 @@ impl ForwardLookup {
         }
         let env = self.env.as_ref()?;
         let (words, counts) = (&env.lit[i * env.words..], &env.counts[i * env.map.len()..]);
-        // n is F_scatter's, which weighs the shadowed part only: the mean count over the
-        // shadowed vertices, as the rays take n only where the shadow ray is blocked (a lit
-        // direction's count is mostly lower, and in the blend it brightened the shadowed part).
-        let (mut lit, mut q, mut shadowed) = (0.0, 0.0, 0.0);
+        let (mut lit, mut q) = (0.0, 0.0);
         for (k, w) in env.map.weights(theta, phi) {
-            let bit = ((words[k / 64] >> (k % 64)) & 1) as f64;
-            lit += w * bit;
+            lit += w * ((words[k / 64] >> (k % 64)) & 1) as f64;
             // Interpolated on the stored log scale: a convex T(n) of a linear blend of counts
             // would darken the light that passes between a thin and a thick direction.
-            q += w * (1.0 - bit) * counts[k] as f64;
-            shadowed += w * (1.0 - bit);
+            q += w * counts[k] as f64;
         }
-        let n = if shadowed > 0.0 { dequantize(q / shadowed) } else { 0.0 };
+        let n = dequantize(q);
         Some((lit, n))
     }
 

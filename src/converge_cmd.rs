@@ -21,7 +21,7 @@ use crate::film::Film;
 use crate::output::write_atomically;
 use crate::plot::register_fonts;
 use crate::render_cmd::{DualInputs, RenderArgs, render_prepared, scene_file};
-use crate::scene::{IntegratorKind, Sampling, Scene, SceneFile};
+use crate::scene::{IntegratorKind, MAX_LIGHT_SAMPLES, Sampling, Scene, SceneFile};
 use anyhow::{Context, Result, anyhow, bail, ensure};
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -104,7 +104,10 @@ impl std::str::FromStr for Method {
         let (smp, k) = rest.split_once('-').map_or((rest, None), |(smp, k)| (smp, Some(k)));
         let light_samples = k
             .map(|k| {
-                k.parse().ok().filter(|k| (1..=256).contains(k)).ok_or(format!("`{k}`: light samples must be 1 to 256"))
+                k.parse()
+                    .ok()
+                    .filter(|k| (1..=MAX_LIGHT_SAMPLES).contains(k))
+                    .ok_or(format!("`{k}`: light samples must be 1 to {MAX_LIGHT_SAMPLES}"))
             })
             .transpose()?;
         let method = Method {

@@ -109,6 +109,7 @@ pub enum Environment {
 }
 
 /// A distant disc light. `half_angle` 0 makes it a delta (directional) light.
+#[derive(Clone, Copy)]
 pub struct Sun {
     /// Unit direction toward the sun.
     pub direction: DVec3,
@@ -507,8 +508,7 @@ mod tests {
         let lights = Lights::new(Some(Environment::Constant(Rgb::splat(0.3))), Some(sun));
         let share = PI * 0.3 / (PI * 0.3 + 3.0);
         assert!((lights.env_share - share).abs() < 1e-15, "share {} vs {share}", lights.env_share);
-        let sun = lights.sun.as_ref().map(|s| Sun { ..*s });
-        let dim = Lights::new(Some(Environment::Constant(Rgb::splat(3e-3))), sun);
+        let dim = Lights::new(Some(Environment::Constant(Rgb::splat(3e-3))), Some(sun));
         assert_eq!(dim.env_share, MIN_SHARE);
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
         let m = 400_000;

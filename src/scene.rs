@@ -188,6 +188,10 @@ pub struct DualSpec {
     pub light_samples: Option<u32>,
 }
 
+/// The most light samples per camera hit `dual` takes (`dual.light_samples`, converge's
+/// `dual-...-K`).
+pub const MAX_LIGHT_SAMPLES: u32 = 256;
+
 impl DualSpec {
     /// Light samples per camera hit: the scene's, else 4 under an environment map and 1 under a
     /// sun or a constant sky. Under a map most of a `dual` sample's noise is where its light
@@ -368,10 +372,15 @@ impl SceneFile {
         }
         d.lookup.validate()?;
         if let Some(k) = d.light_samples {
-            ensure!((1..=256).contains(&k), "dual.light_samples must be in 1..=256, got {k}");
+            ensure!(
+                (1..=MAX_LIGHT_SAMPLES).contains(&k),
+                "dual.light_samples must be in 1..={MAX_LIGHT_SAMPLES}, got {k}"
+            );
         }
-        // Sub-sample j of sample i reads point i k + j (k <= 256) of 32-bit sequences (sampler.rs).
-        ensure!(r.spp <= 1 << 24, "render.spp must be at most 2^24, got {}", r.spp);
+        // Sub-sample j of sample i reads point i k + j (k <= MAX_LIGHT_SAMPLES) of 32-bit
+        // sequences (sampler.rs).
+        let max_spp = (1u64 << 32) / MAX_LIGHT_SAMPLES as u64;
+        ensure!(r.spp as u64 <= max_spp, "render.spp must be at most {max_spp}, got {}", r.spp);
         if d.shadows == ShadowMode::Lookup && d.model.transmittance_kind() == Transmittance::Fibers {
             bail!("dual.model `fibers` counts the fibers along each shadow ray, so it needs dual.shadows \"rays\"");
         }

@@ -15,7 +15,7 @@
 //!
 //! Settings: DUALHAIR_ACC_SIZE (pixels, default 48), DUALHAIR_ACC_REF_SPP (default 8192),
 //! DUALHAIR_ACC_DUAL_SPP (default 2048), DUALHAIR_ACC_MODELS (comma-separated variants, each
-//! `NAME[@D_F/D_B][:SHADOWS]`, NAME as for `render --model`, SHADOWS `lookup` (default) or `rays`;
+//! `NAME[@D_F/D_B][:SHADOWS]`, NAME as for `render --dual-model`, SHADOWS `lookup` (default) or `rays`;
 //! default `zinke2008@0.7/0.7:rays,two_stream:rays,two_stream`),
 //! DUALHAIR_ACC_GROOMS (comma-separated .hair files), DUALHAIR_ACC_SEEDS (default 1: with more,
 //! each `dual` render is repeated with seeds 1, 2, ..., its mean ratio is the mean over seeds with

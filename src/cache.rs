@@ -11,7 +11,7 @@ use crate::transmittance::ForwardLookup;
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
 use precompute::density::{DensityGrid, read_vdb, write_vdb};
-use precompute::fiber::{Chiang, FiberParams};
+use precompute::fiber::{Fiber, FiberParams};
 use precompute::strands::Strands;
 use precompute::tables::{TableSettings, Tables, compute};
 use std::io::Write;
@@ -77,7 +77,7 @@ impl Cache {
             path.display()
         ));
         spinner.enable_steady_tick(Duration::from_millis(120));
-        let mut tables = compute(&Chiang::new(fiber)?, &settings, d_b);
+        let mut tables = compute(&Fiber::exact(fiber)?, &settings, d_b);
         spinner.finish_and_clear();
         tables.fiber = Some(*fiber);
         write_atomically(&path, |tmp| Ok(std::fs::write(tmp, serde_json::to_vec(&tables.to_json())?)?))?;

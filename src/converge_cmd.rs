@@ -40,7 +40,8 @@ pub struct ConvergeArgs {
     /// Scene file (.json) or hair file (.hair); default: scenes/default.json.
     pub scene: Option<PathBuf>,
     /// Methods to compare, INTEGRATOR-SAMPLING, comma separated: dual-importance, dual-uniform,
-    /// dual-light, single-importance, single-uniform, path-importance, path-uniform; a `dual`
+    /// dual-light, single-importance, single-uniform, path-importance, path-uniform, and for a
+    /// Marschner fiber INTEGRATOR-thesis (its sampler with the thesis's stated density); a `dual`
     /// method may end in -K for K light samples per camera hit (dual-light-1, dual-light-4).
     #[arg(long, value_delimiter = ',', default_value = "dual-importance,dual-uniform")]
     pub methods: Vec<Method>,
@@ -79,6 +80,9 @@ pub struct ConvergeArgs {
     /// Most fiber vertices on a path (path).
     #[arg(long)]
     pub max_depth: Option<u32>,
+    /// Fiber scattering model (overrides the scene's `fiber.model`).
+    #[arg(long)]
+    pub model: Option<precompute::fiber::ModelKind>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -237,6 +241,7 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
         d_f: args.d_f,
         d_b: args.d_b,
         max_depth: args.max_depth,
+        model: args.model,
         ..RenderArgs::default()
     };
     let file = scene_file(&render_args)?;

@@ -443,7 +443,7 @@ where
         let importance = match self.dual.sampling {
             Sampling::Light => return None,
             Sampling::Uniform => false,
-            Sampling::Importance => true,
+            Sampling::Importance | Sampling::Thesis => true,
         };
         let u = sampler.get_4d();
         // (u[1], u[2]) is the stratified pair of `Sampler::get_4d`.
@@ -466,7 +466,7 @@ where
         match self.dual.sampling {
             Sampling::Light => 0.0,
             Sampling::Uniform => 1.0 / SPHERE,
-            Sampling::Importance => self.mixture_pdf(self.fiber.pdf(wi)),
+            Sampling::Importance | Sampling::Thesis => self.mixture_pdf(self.fiber.pdf(wi)),
         }
     }
 

@@ -1,6 +1,6 @@
 //! Command-line flags describing a fiber, shared by every command that needs one.
 
-use precompute::fiber::{Absorption, FiberParams, ParamError};
+use precompute::fiber::{Absorption, FiberParams, MarschnerParams, ModelKind, ParamError};
 
 /// Fiber material flags. Absorption comes from exactly one of --sigma-a, --eumelanin/--pheomelanin
 /// or --color; with none of them the hair is brown (eumelanin 1.3).
@@ -31,6 +31,16 @@ pub struct FiberArgs {
     /// Index of refraction of the fiber (> 1).
     #[arg(long, default_value_t = 1.55, allow_negative_numbers = true)]
     pub eta: f64,
+    /// Fiber scattering model: chiang (Chiang et al. 2016; --beta-m, --beta-n, --alpha) or
+    /// marschner (Marschner et al. 2003 as seed 003 uses it; --alpha-r, --beta-r).
+    #[arg(long, default_value = "chiang")]
+    pub model: ModelKind,
+    /// Marschner: longitudinal shift of the R lobe in degrees (negative puts R toward the root).
+    #[arg(long, default_value_t = MarschnerParams::default().alpha_r, allow_negative_numbers = true)]
+    pub alpha_r: f64,
+    /// Marschner: longitudinal width of the R lobe in degrees.
+    #[arg(long, default_value_t = MarschnerParams::default().beta_r, allow_negative_numbers = true)]
+    pub beta_r: f64,
 }
 
 impl FiberArgs {
@@ -42,8 +52,15 @@ impl FiberArgs {
             (_, None, None, None) => FiberParams::default().absorption,
             (_, e, p, _) => Absorption::Melanin { eumelanin: e.unwrap_or(0.0), pheomelanin: p.unwrap_or(0.0) },
         };
-        let params =
-            FiberParams { absorption, beta_m: self.beta_m, beta_n: self.beta_n, alpha: self.alpha, eta: self.eta };
+        let params = FiberParams {
+            model: self.model,
+            absorption,
+            beta_m: self.beta_m,
+            beta_n: self.beta_n,
+            alpha: self.alpha,
+            eta: self.eta,
+            marschner: MarschnerParams { alpha_r: self.alpha_r, beta_r: self.beta_r, ..MarschnerParams::default() },
+        };
         params.validate()?;
         Ok(params)
     }

@@ -4,8 +4,8 @@ use crate::fiber_args::FiberArgs;
 use crate::output::{ImageFormat, write_exr, write_png};
 use crate::plot::HeatMap;
 use anyhow::{Result, bail};
-use precompute::fiber::{Chiang, scale_from_beta_n};
-use precompute::lobe::{LobeImage, h_rule, lobe_image};
+use precompute::fiber::{Fiber, ModelKind};
+use precompute::lobe::{LobeImage, lobe_image};
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::path::PathBuf;
 
@@ -42,8 +42,8 @@ pub fn run(args: &LobeArgs) -> Result<()> {
     }
     let format = ImageFormat::from_path(&args.output)?;
     let params = args.fiber.params()?;
-    let model = Chiang::new(&params)?;
-    let rule = h_rule(scale_from_beta_n(params.beta_n), 1);
+    let model = Fiber::exact(&params)?;
+    let rule = params.h_rule(1.0);
     let image = lobe_image(&model, args.theta, args.width, args.height, &rule);
     match format {
         ImageFormat::Exr => {
@@ -68,10 +68,16 @@ pub fn run(args: &LobeArgs) -> Result<()> {
 fn chart(image: &LobeImage, args: &LobeArgs) -> Result<image::RgbImage> {
     let f = &args.fiber;
     let values: Vec<f64> = image.pixels.iter().map(|p| p.luminance()).collect();
-    let title = format!(
-        "fiber lobe, light at theta = {:.3} rad: beta_m {}, beta_n {}, alpha {} deg, eta {}",
-        args.theta, f.beta_m, f.beta_n, f.alpha, f.eta
-    );
+    let title = match f.model {
+        ModelKind::Chiang => format!(
+            "Chiang fiber lobe, light at theta = {:.3} rad: beta_m {}, beta_n {}, alpha {} deg, eta {}",
+            args.theta, f.beta_m, f.beta_n, f.alpha, f.eta
+        ),
+        ModelKind::Marschner => format!(
+            "Marschner fiber lobe, light at theta = {:.3} rad: alpha_R {} deg, beta_R {} deg, eta {}",
+            args.theta, f.alpha_r, f.beta_r, f.eta
+        ),
+    };
     HeatMap {
         title: &title,
         x_label: "azimuth phi (rad)",

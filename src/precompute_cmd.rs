@@ -7,7 +7,7 @@ use crate::scene::SceneFile;
 use crate::tables_chart::draw_tables;
 use anyhow::{Context, Result, bail, ensure};
 use precompute::density::{DensityGrid, write_vdb};
-use precompute::fiber::Chiang;
+use precompute::fiber::Fiber;
 use precompute::strands::Strands;
 use precompute::tables::{TableSettings, compute};
 use std::io::Write;
@@ -84,7 +84,7 @@ fn tables(args: &TablesArgs) -> Result<()> {
         rayon::current_num_threads()
     );
     let start = Instant::now();
-    let mut tables = compute(&Chiang::new(&params)?, &settings, args.d_b);
+    let mut tables = compute(&Fiber::exact(&params)?, &settings, args.d_b);
     tables.fiber = Some(params);
     match ext.as_str() {
         "json" => write_atomically(&args.output, |tmp| {

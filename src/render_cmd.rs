@@ -10,7 +10,7 @@ use crate::scene::{IntegratorKind, Sampling, Scene, SceneFile, ShadowMode};
 use crate::transmittance::ForwardLookup;
 use anyhow::{Context, Result, bail};
 use precompute::density::{DensityGrid, read_vdb};
-use precompute::fiber::{Chiang, FiberModel, UniformSampled};
+use precompute::fiber::{Fiber, FiberModel, MarschnerPdf, ModelKind, UniformSampled};
 use precompute::tables::Tables;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -46,9 +46,13 @@ pub struct RenderArgs {
     /// Backscattering density factor d_b in [0, 1] (dual integrator).
     #[arg(long)]
     pub d_b: Option<f64>,
+    /// Fiber scattering model (default: the scene's `fiber.model`, else chiang); a Marschner
+    /// fiber takes its parameters from the scene's `fiber.marschner`.
+    #[arg(long)]
+    pub model: Option<ModelKind>,
     /// Dual-scattering model (dual integrator; default: the scene's, else two_stream).
     #[arg(long, value_enum)]
-    pub model: Option<DualModel>,
+    pub dual_model: Option<DualModel>,
     /// Shadows in the dual integrator (default: the scene's, else lookup).
     #[arg(long, value_enum)]
     pub shadows: Option<ShadowMode>,
@@ -101,7 +105,8 @@ pub fn scene_file(args: &RenderArgs) -> Result<SceneFile> {
     r.max_depth = args.max_depth.unwrap_or(r.max_depth);
     file.dual.d_f = args.d_f.unwrap_or(file.dual.d_f);
     file.dual.d_b = args.d_b.unwrap_or(file.dual.d_b);
-    file.dual.model = args.model.unwrap_or(file.dual.model);
+    file.fiber.model = args.model.unwrap_or(file.fiber.model);
+    file.dual.model = args.dual_model.unwrap_or(file.dual.model);
     file.dual.shadows = args.shadows.unwrap_or(file.dual.shadows);
     file.dual.light_samples = args.light_samples.or(file.dual.light_samples);
     file.camera.width = args.width.unwrap_or(file.camera.width);
@@ -167,20 +172,22 @@ pub fn render_scene(scene: &Scene, cache: &Cache, progress: bool) -> Result<Film
 /// Renders a built scene with inputs already loaded (see [`DualInputs::load`]): rendering alone,
 /// what comparisons time.
 pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool) -> Result<Film> {
-    let chiang = Chiang::new(&scene.fiber)?;
+    let sampling = scene.render.sampling();
+    let pdf = if sampling == Sampling::Thesis { MarschnerPdf::Thesis } else { MarschnerPdf::Exact };
+    let fiber = Fiber::new(&scene.fiber, pdf)?;
     let (spp, seed) = (scene.render.spp, scene.render.seed);
     if let Some(inputs) = dual {
         let d = &scene.dual;
         let dual = DualScattering {
             fibers: &scene.fibers,
-            fiber: &chiang,
+            fiber: &fiber,
             lights: &scene.lights,
             tables: &inputs.tables,
             grid: &inputs.grid,
             d_f: d.d_f,
             d_b: d.d_b,
             model: d.model,
-            sampling: scene.render.sampling(),
+            sampling,
             shadows: match &inputs.lookup {
                 Some(lookup) => Shadows::Lookup(lookup),
                 None => Shadows::Rays,
@@ -195,9 +202,9 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
         IntegratorKind::Dual => bail!("the dual integrator needs its tables and density grid"),
         IntegratorKind::Auto => bail!("`auto` must be resolved to an integrator first (resolve_auto)"),
     };
-    match scene.render.sampling() {
-        Sampling::Importance => Ok(path_trace(scene, &chiang, max_depth, progress)),
-        Sampling::Uniform => Ok(path_trace(scene, &UniformSampled(chiang), max_depth, progress)),
+    match sampling {
+        Sampling::Importance | Sampling::Thesis => Ok(path_trace(scene, &fiber, max_depth, progress)),
+        Sampling::Uniform => Ok(path_trace(scene, &UniformSampled(fiber), max_depth, progress)),
         Sampling::Light => bail!("light sampling alone needs the dual integrator"),
     }
 }

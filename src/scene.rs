@@ -9,7 +9,7 @@ use crate::light::{EnvMap, Environment, Lights, Sun};
 use crate::transmittance::LookupSettings;
 use anyhow::{Context, Result, bail, ensure};
 use glam::{DMat4, DVec3, EulerRot};
-use precompute::fiber::FiberParams;
+use precompute::fiber::{FiberParams, ModelKind};
 use precompute::spectrum::Rgb;
 use precompute::strands::{Generator, Strands, read_hair};
 use serde::{Deserialize, Serialize};
@@ -157,6 +157,9 @@ pub enum Sampling {
     Uniform,
     /// Light sampling alone (`dual` only).
     Light,
+    /// The fiber's sampler with the density its source states in place of the density it has
+    /// (Marschner only: the thesis's, seed 003 section 4.3). Biased; there to measure that.
+    Thesis,
 }
 
 /// The dual-scattering integrator's parameters (Zinke et al. 2008; design section 4).
@@ -365,6 +368,11 @@ impl SceneFile {
         self.fiber.validate().context("fiber")?;
         if r.sampling == Some(Sampling::Light) && r.integrator != IntegratorKind::Dual {
             bail!("render.sampling `light` needs the dual integrator (path tracing must sample fiber directions)");
+        }
+        if r.sampling == Some(Sampling::Thesis) && self.fiber.model != ModelKind::Marschner {
+            bail!(
+                "render.sampling `thesis` is the Marschner model's (fiber.model \"marschner\"); this fiber's sampler has only its exact density"
+            );
         }
         let d = &self.dual;
         for (name, v) in [("dual.d_f", d.d_f), ("dual.d_b", d.d_b)] {

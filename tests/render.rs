@@ -77,6 +77,28 @@ fn single_is_path_at_depth_one() {
 }
 
 #[test]
+fn every_integrator_renders_the_marschner_fiber() {
+    // The other model behind the same interface: single is path at depth 1 for it too, multiple
+    // scattering adds light, and dual (its own tables) lands between single and path.
+    let json = BROWN_CURLS.replacen(r#""fiber": {"#, r#""fiber": {"model": "marschner", "#, 1);
+    assert!(json.contains("marschner"), "the scene has a fiber section to extend");
+    let mut file = scene_from(&json);
+    file.render.integrator = IntegratorKind::Single;
+    let single = render(&file);
+    file.render.integrator = IntegratorKind::Path;
+    file.render.max_depth = 1;
+    assert!(render(&file).mean == single.mean, "single and path at depth 1 must be the same estimator");
+    file.render.max_depth = 512;
+    let path = hair_mean(&render(&file)).0;
+    file.render.integrator = IntegratorKind::Dual;
+    let dual = render(&file);
+    assert!(dual.mean.iter().all(|p| p.is_finite()));
+    let (s, d) = (hair_mean(&single).0, hair_mean(&dual).0);
+    println!("Marschner brown curls: single {s:.4}, dual {d:.4}, path {path:.4}");
+    assert!(s < d && d < 1.2 * path && path > 1.05 * s, "single {s}, dual {d}, path {path}");
+}
+
+#[test]
 fn a_lone_straight_fiber_scatters_light_once() {
     // A straight fiber is convex: light leaving it never meets it again, so path tracing finds
     // exactly single scattering (bit for bit: the same estimator, whose later vertices find
@@ -193,6 +215,8 @@ fn bad_scenes_name_the_problem() {
         (r#"{"hair": {"generate": {"kind": "ball"}}, "dual": {"model": "fibers"}}"#, "needs dual.shadows"),
         (r#"{"hair": {"generate": {"kind": "ball"}}, "dual": {"lookup": {"env_theta": 1}}}"#, "dual.lookup.env_theta"),
         (r#"{"hair": {"generate": {"kind": "ball"}}, "dual": {"shadows": "maps"}}"#, "unknown variant `maps`"),
+        (r#"{"hair": {"generate": {"kind": "ball"}}, "render": {"sampling": "thesis"}}"#, "Marschner model's"),
+        (r#"{"hair": {"generate": {"kind": "ball"}}, "fiber": {"model": "marschner", "marschner": {"beta_r": 0}}}"#, "marschner.beta_r"),
     ];
     let dir = tempfile::tempdir().unwrap();
     for (json, expect) in cases {

@@ -40,7 +40,7 @@
 //! one row per theta.
 
 use crate::conventions::direction;
-use crate::fiber::{FiberHit, FiberModel, FiberParams, scale_from_beta_n, variance_from_beta_m};
+use crate::fiber::{FiberHit, FiberModel, FiberParams, ModelKind, scale_from_beta_n, variance_from_beta_m};
 use crate::lobe::h_rule;
 use crate::quadrature::composite;
 use crate::spectrum::Rgb;
@@ -148,9 +148,19 @@ impl TableSettings {
         }
     }
 
-    /// [`TableSettings::for_roughness`] for a Chiang et al. 2016 fiber.
+    /// [`TableSettings::for_roughness`] for a fiber. A Marschner fiber's narrowest features are
+    /// its TT lobe (width beta_R / 2, as Chiang's TT with v = beta_R^2) and its caustic; its f is
+    /// already integrated over h, so one h node does.
     pub fn for_fiber(params: &FiberParams) -> TableSettings {
-        TableSettings::for_roughness(scale_from_beta_n(params.beta_n), variance_from_beta_m(params.beta_m))
+        match params.model {
+            ModelKind::Chiang => {
+                TableSettings::for_roughness(scale_from_beta_n(params.beta_n), variance_from_beta_m(params.beta_m))
+            }
+            ModelKind::Marschner => {
+                let beta = params.marschner.beta_r.to_radians();
+                TableSettings { h_rule: params.h_rule(8.0), ..TableSettings::for_roughness(PI / 96.0, beta * beta) }
+            }
+        }
     }
 
     /// What the exports record of these settings.

@@ -1,5 +1,7 @@
 //! Physical and statistical checks of the Chiang 2016 fiber and its samplers (issue 2).
 
+mod sphere;
+
 use glam::DVec3;
 use precompute::conventions::{SPHERE, direction};
 use precompute::fiber::{
@@ -11,15 +13,22 @@ use precompute::spectrum::Rgb;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
-use statrs::distribution::{ChiSquared, ContinuousCDF};
+use sphere::{chi_square_p_value, sphere_quadrature};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 const BETAS: [f64; 5] = [0.1, 0.3, 0.5, 0.7, 0.9];
 const ALPHAS: [f64; 3] = [0.0, 2.0, 4.0];
 
 fn fiber(beta_m: f64, beta_n: f64, alpha: f64, sigma_a: f64) -> Chiang {
-    Chiang::new(&FiberParams { absorption: Absorption::SigmaA([sigma_a; 3]), beta_m, beta_n, alpha, eta: 1.55 })
-        .unwrap()
+    Chiang::new(&FiberParams {
+        absorption: Absorption::SigmaA([sigma_a; 3]),
+        beta_m,
+        beta_n,
+        alpha,
+        eta: 1.55,
+        ..Default::default()
+    })
+    .unwrap()
 }
 
 /// The furnace grid of the issue: beta_m x beta_n x alpha x {random, grazing} light direction.
@@ -175,16 +184,6 @@ fn sampling_consistency_under_varying_radiance() {
     });
 }
 
-/// Integral over the sphere of `g(wi)` by composite Gauss-Legendre in (theta, phi).
-fn sphere_quadrature(g: impl Fn(DVec3) -> f64 + Sync, theta_panels: usize, phi_panels: usize) -> f64 {
-    let thetas = composite(-FRAC_PI_2, FRAC_PI_2, theta_panels, 4);
-    let phis = composite(-PI, PI, phi_panels, 4);
-    thetas
-        .par_iter()
-        .map(|&(t, wt)| phis.iter().map(|&(p, wp)| g(direction(t, p)) * wp).sum::<f64>() * wt * t.cos())
-        .sum()
-}
-
 #[test]
 fn pdf_and_energy_integrate_to_one() {
     // (beta_m, beta_n, alpha, theta_o, h): low roughness, tilted, grazing and near-edge cases.
@@ -266,54 +265,6 @@ fn bessel_and_mp_match_independent_values() {
     }
 }
 
-/// Chi-square test of `model.sample` against `model.pdf` on an equal-area (sin theta, phi) grid.
-fn chi_square_p_value(model: &impl FiberModel, wo: DVec3, h: f64, samples: usize, seed: u64) -> (f64, usize) {
-    let hit = model.at(wo, h);
-    let (nx, np) = (40, 80);
-    let mut observed = vec![0.0; nx * np];
-    let mut rng = Pcg64::seed_from_u64(seed);
-    for _ in 0..samples {
-        let s = hit.sample(rng.random()).unwrap();
-        let x = (((s.wi.x + 1.0) * 0.5 * nx as f64) as usize).min(nx - 1);
-        let p = (((precompute::conventions::phi(s.wi) + PI) / (2.0 * PI) * np as f64) as usize).min(np - 1);
-        observed[x * np + p] += 1.0;
-    }
-    // Expected counts: the pdf integrated over each bin (dw = d(sin theta) dphi), 7x7 Gauss-Legendre.
-    let expected: Vec<f64> = (0..nx * np)
-        .into_par_iter()
-        .map(|b| {
-            let (ix, ip) = (b / np, b % np);
-            let x0 = -1.0 + 2.0 * ix as f64 / nx as f64;
-            let p0 = -PI + 2.0 * PI * ip as f64 / np as f64;
-            let mut sum = 0.0;
-            for &(x, wx) in &composite(x0, x0 + 2.0 / nx as f64, 1, 7) {
-                for &(p, wp) in &composite(p0, p0 + 2.0 * PI / np as f64, 1, 7) {
-                    sum += wx * wp * hit.pdf(direction(x.asin(), p));
-                }
-            }
-            sum * samples as f64
-        })
-        .collect();
-    // Pool bins expected to hold fewer than 5 samples (Mitsuba's chi2 test does the same).
-    let (mut stat, mut dof, mut pool_o, mut pool_e) = (0.0, 0usize, 0.0, 0.0);
-    for (o, e) in observed.iter().zip(&expected) {
-        if *e < 5.0 {
-            pool_o += o;
-            pool_e += e;
-        } else {
-            stat += (o - e) * (o - e) / e;
-            dof += 1;
-        }
-    }
-    if pool_e > 0.0 {
-        stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
-        dof += 1;
-    }
-    let p = ChiSquared::new((dof - 1) as f64).unwrap().sf(stat);
-    println!("chi2 = {stat:.1} with {} dof, p = {p:.4}", dof - 1);
-    (p, dof)
-}
-
 #[test]
 fn sampled_directions_follow_the_pdf() {
     // (beta_m, beta_n, alpha, sigma_a, theta_o, h)
@@ -387,7 +338,14 @@ fn stable_over_the_seed_001_parameter_grid() {
     let failures: Vec<String> = cases
         .par_iter()
         .flat_map_iter(|&(alpha, m, beta, eta)| {
-            let params = FiberParams { absorption: Absorption::SigmaA([m; 3]), beta_m: beta, beta_n: beta, alpha, eta };
+            let params = FiberParams {
+                absorption: Absorption::SigmaA([m; 3]),
+                beta_m: beta,
+                beta_n: beta,
+                alpha,
+                eta,
+                ..Default::default()
+            };
             let model = Chiang::new(&params).unwrap();
             let mut bad = Vec::new();
             for &t in &thetas {

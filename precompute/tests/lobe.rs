@@ -8,7 +8,7 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 
 fn params(sigma_a: [f64; 3], beta_m: f64, beta_n: f64, alpha: f64) -> FiberParams {
-    FiberParams { absorption: Absorption::SigmaA(sigma_a), beta_m, beta_n, alpha, eta: 1.55 }
+    FiberParams { absorption: Absorption::SigmaA(sigma_a), beta_m, beta_n, alpha, eta: 1.55, ..Default::default() }
 }
 
 #[test]

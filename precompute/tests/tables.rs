@@ -8,7 +8,7 @@ use precompute::tables::{D_B, Quantity, Scattering, TableSettings, Tables, compu
 use std::f64::consts::FRAC_PI_2;
 
 fn fiber(absorption: Absorption, beta_m: f64, beta_n: f64, alpha: f64) -> FiberParams {
-    FiberParams { absorption, beta_m, beta_n, alpha, eta: 1.55 }
+    FiberParams { absorption, beta_m, beta_n, alpha, eta: 1.55, ..Default::default() }
 }
 
 fn melanin(eumelanin: f64) -> Absorption {

@@ -10,13 +10,15 @@ mod attenuation;
 mod azimuthal;
 mod chiang;
 mod longitudinal;
+mod marschner;
 mod params;
 
 pub use attenuation::{P_MAX, fresnel_dielectric};
 pub use azimuthal::scale_from_beta_n;
 pub use chiang::{Chiang, ChiangHit};
 pub use longitudinal::{Longitudinal, mp, variance_from_beta_m};
-pub use params::{Absorption, FiberParams, ParamError};
+pub use marschner::{Marschner, MarschnerHit, MarschnerParams, MarschnerPdf};
+pub use params::{Absorption, FiberParams, ModelKind, ParamError};
 
 use crate::conventions::SPHERE;
 use crate::spectrum::Rgb;
@@ -126,5 +128,84 @@ impl<H: FiberHit> FiberHit for UniformHit<H> {
 
     fn eval_pdf(&self, wi: DVec3) -> (Rgb, f64) {
         (self.0.eval(wi), 1.0 / SPHERE)
+    }
+}
+
+/// The fiber model a [`FiberParams`] names: what commands and integrators hold, so that none of
+/// them asks which model it is.
+pub enum Fiber {
+    Chiang(Chiang),
+    Marschner(Marschner),
+}
+
+/// A [`Fiber`] at one hit.
+pub enum FiberAt<'a> {
+    Chiang(ChiangHit<'a>),
+    Marschner(MarschnerHit<'a>),
+}
+
+impl Fiber {
+    /// The model of `params`; `pdf` is the density the Marschner sampler reports (the others'
+    /// samplers are exact).
+    pub fn new(params: &FiberParams, pdf: MarschnerPdf) -> Result<Fiber, ParamError> {
+        Ok(match params.model {
+            ModelKind::Chiang => Fiber::Chiang(Chiang::new(params)?),
+            ModelKind::Marschner => Fiber::Marschner(Marschner::new(params, pdf)?),
+        })
+    }
+
+    /// The model of `params` with its exact sampler.
+    pub fn exact(params: &FiberParams) -> Result<Fiber, ParamError> {
+        Fiber::new(params, MarschnerPdf::Exact)
+    }
+}
+
+impl FiberModel for Fiber {
+    type Hit<'a> = FiberAt<'a>;
+
+    fn at(&self, wo: DVec3, h: f64) -> FiberAt<'_> {
+        match self {
+            Fiber::Chiang(m) => FiberAt::Chiang(m.at(wo, h)),
+            Fiber::Marschner(m) => FiberAt::Marschner(m.at(wo, h)),
+        }
+    }
+}
+
+impl FiberHit for FiberAt<'_> {
+    fn eval(&self, wi: DVec3) -> Rgb {
+        match self {
+            FiberAt::Chiang(h) => h.eval(wi),
+            FiberAt::Marschner(h) => h.eval(wi),
+        }
+    }
+
+    fn sample(&self, u: [f64; 4]) -> Option<FiberSample> {
+        match self {
+            FiberAt::Chiang(h) => h.sample(u),
+            FiberAt::Marschner(h) => h.sample(u),
+        }
+    }
+
+    fn eval_pdf(&self, wi: DVec3) -> (Rgb, f64) {
+        match self {
+            FiberAt::Chiang(h) => h.eval_pdf(wi),
+            FiberAt::Marschner(h) => h.eval_pdf(wi),
+        }
+    }
+}
+
+impl SpreadHit for FiberAt<'_> {
+    fn eval_spread(&self, wi: DVec3, spread: Rgb) -> Rgb {
+        match self {
+            FiberAt::Chiang(h) => h.eval_spread(wi, spread),
+            FiberAt::Marschner(h) => h.eval_spread(wi, spread),
+        }
+    }
+
+    fn eval_both(&self, wi: DVec3, spread: Rgb) -> (Rgb, Rgb) {
+        match self {
+            FiberAt::Chiang(h) => h.eval_both(wi, spread),
+            FiberAt::Marschner(h) => h.eval_both(wi, spread),
+        }
     }
 }

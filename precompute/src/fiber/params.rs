@@ -1,6 +1,9 @@
 //! The fiber material description shared by the CLI, scene files and the tables: roughness,
 //! scale tilt, index of refraction, and absorption given in one of three ways.
 
+use super::azimuthal::scale_from_beta_n;
+use super::marschner::MarschnerParams;
+use crate::lobe::h_rule;
 use crate::spectrum::Rgb;
 use serde::{Deserialize, Serialize};
 
@@ -23,11 +26,37 @@ pub enum Absorption {
     Color([f64; 3]),
 }
 
-/// Parameters of a single fiber. Defaults: brown hair (eumelanin 1.3), beta_m = beta_n = 0.3,
-/// alpha = 2 degrees, eta = 1.55.
+/// The single-fiber scattering model.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModelKind {
+    /// Chiang et al. 2016 (seed 002): energy conserving, d'Eon 2013 sampling.
+    #[default]
+    Chiang,
+    /// Marschner et al. 2003 as the thesis uses it (seed 003 section 3.2.2): not energy
+    /// conserving; parameters in `marschner`.
+    Marschner,
+}
+
+impl std::str::FromStr for ModelKind {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<ModelKind, String> {
+        match s {
+            "chiang" => Ok(ModelKind::Chiang),
+            "marschner" => Ok(ModelKind::Marschner),
+            _ => Err(format!("`{s}`: no such fiber model (chiang, marschner)")),
+        }
+    }
+}
+
+/// Parameters of a single fiber. Defaults: the Chiang model, brown hair (eumelanin 1.3),
+/// beta_m = beta_n = 0.3, alpha = 2 degrees, eta = 1.55. `beta_m`, `beta_n` and `alpha` are the
+/// Chiang model's; the Marschner model reads its own from `marschner`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FiberParams {
+    pub model: ModelKind,
     pub absorption: Absorption,
     /// Longitudinal roughness in (0, 1].
     pub beta_m: f64,
@@ -38,16 +67,19 @@ pub struct FiberParams {
     pub alpha: f64,
     /// Index of refraction of the fiber relative to the surrounding medium (> 1).
     pub eta: f64,
+    pub marschner: MarschnerParams,
 }
 
 impl Default for FiberParams {
     fn default() -> Self {
         FiberParams {
+            model: ModelKind::Chiang,
             absorption: Absorption::Melanin { eumelanin: 1.3, pheomelanin: 0.0 },
             beta_m: 0.3,
             beta_n: 0.3,
             alpha: 2.0,
             eta: 1.55,
+            marschner: MarschnerParams::default(),
         }
     }
 }
@@ -76,6 +108,7 @@ impl FiberParams {
         check("beta_n", self.beta_n, self.beta_n > 0.0 && self.beta_n <= 1.0, "must be in (0, 1]")?;
         check("alpha", self.alpha, self.alpha.abs() <= 20.0, "must be within +-20 degrees")?;
         check("eta", self.eta, self.eta > 1.0 && self.eta <= 4.0, "must be in (1, 4]")?;
+        self.marschner.validate()?;
         match self.absorption {
             Absorption::SigmaA(s) => {
                 for v in s {
@@ -93,6 +126,16 @@ impl FiberParams {
             }
         }
         Ok(())
+    }
+
+    /// Quadrature nodes over h for averaging the model's f over the fiber's width ([`h_rule`]),
+    /// panels `width` logistic scales wide for the Chiang model; one node for the Marschner
+    /// model, whose f does not depend on h.
+    pub fn h_rule(&self, width: f64) -> Vec<(f64, f64)> {
+        match self.model {
+            ModelKind::Chiang => h_rule(width * scale_from_beta_n(self.beta_n), 1),
+            ModelKind::Marschner => vec![(0.0, 1.0)],
+        }
     }
 
     /// The absorption coefficient per unit radius this description stands for.

@@ -216,7 +216,10 @@ fn bad_scenes_name_the_problem() {
         (r#"{"hair": {"generate": {"kind": "ball"}}, "dual": {"lookup": {"env_theta": 1}}}"#, "dual.lookup.env_theta"),
         (r#"{"hair": {"generate": {"kind": "ball"}}, "dual": {"shadows": "maps"}}"#, "unknown variant `maps`"),
         (r#"{"hair": {"generate": {"kind": "ball"}}, "render": {"sampling": "thesis"}}"#, "Marschner model's"),
-        (r#"{"hair": {"generate": {"kind": "ball"}}, "fiber": {"model": "marschner", "marschner": {"beta_r": 0}}}"#, "marschner.beta_r"),
+        (
+            r#"{"hair": {"generate": {"kind": "ball"}}, "fiber": {"model": "marschner", "marschner": {"beta_r": 0}}}"#,
+            "marschner.beta_r",
+        ),
     ];
     let dir = tempfile::tempdir().unwrap();
     for (json, expect) in cases {

@@ -27,6 +27,13 @@ fn fiber(sigma_a: f64, pdf: MarschnerPdf) -> Marschner {
     Marschner::new(&params(sigma_a, -7.5, 7.5), pdf).unwrap()
 }
 
+/// A Marschner fiber with melanin (colored: absorption differs per channel), exact density.
+fn colored(eumelanin: f64, pheomelanin: f64) -> Marschner {
+    let absorption = Absorption::Melanin { eumelanin, pheomelanin };
+    Marschner::new(&FiberParams { model: ModelKind::Marschner, absorption, ..Default::default() }, MarschnerPdf::Exact)
+        .unwrap()
+}
+
 fn random_direction(rng: &mut Pcg64) -> DVec3 {
     direction((2.0 * rng.random::<f64>() - 1.0).asin(), PI * (2.0 * rng.random::<f64>() - 1.0))
 }
@@ -64,15 +71,7 @@ fn r_lobe_matches_its_closed_form() {
 #[test]
 fn reciprocal() {
     // f(wo, wi) = f(wi, wo); eval returns f |cos theta_i|.
-    let model = Marschner::new(
-        &FiberParams {
-            model: ModelKind::Marschner,
-            absorption: Absorption::Melanin { eumelanin: 0.3, pheomelanin: 0.1 },
-            ..Default::default()
-        },
-        MarschnerPdf::Exact,
-    )
-    .unwrap();
+    let model = colored(0.3, 0.1);
     let mut rng = Pcg64::seed_from_u64(2);
     for _ in 0..500 {
         let (wo, wi) = (random_direction(&mut rng), random_direction(&mut rng));
@@ -163,15 +162,7 @@ fn spread_response_keeps_each_inclinations_azimuthal_integral() {
     // integral over phi (and widens M_p, a Gaussian convolution); with no spread the integral over
     // phi at each theta_i must therefore equal that of f (the average is tabulated over theta_d
     // from a histogram of Phi(p, h), not from the roots that eval sums).
-    let model = Marschner::new(
-        &FiberParams {
-            model: ModelKind::Marschner,
-            absorption: Absorption::Melanin { eumelanin: 0.3, pheomelanin: 0.0 },
-            ..Default::default()
-        },
-        MarschnerPdf::Exact,
-    )
-    .unwrap();
+    let model = colored(0.3, 0.0);
     let phis = precompute::quadrature::composite(-PI, PI, 400, 4);
     for theta_o in [0.3, -1.0, 1.45] {
         let hit = model.at(direction(theta_o, 0.0), 0.0);

@@ -38,6 +38,7 @@
 
 use super::attenuation::fresnel_dielectric;
 use super::longitudinal::Longitudinal;
+use super::params::check;
 use super::{FiberHit, FiberModel, FiberParams, FiberSample, ParamError, SpreadHit};
 use crate::conventions::{phi, pick, sin_cos_theta, wrap_angle};
 use crate::spectrum::Rgb;
@@ -81,9 +82,6 @@ impl Default for MarschnerParams {
 
 impl MarschnerParams {
     pub fn validate(&self) -> Result<(), ParamError> {
-        let check = |field, value: f64, ok: bool, problem| {
-            if value.is_finite() && ok { Ok(()) } else { Err(ParamError { field, problem, value }) }
-        };
         check("marschner.alpha_r", self.alpha_r, self.alpha_r.abs() <= 20.0, "must be within +-20 degrees")?;
         check("marschner.beta_r", self.beta_r, self.beta_r > 0.0 && self.beta_r <= 30.0, "must be in (0, 30] degrees")?;
         check("marschner.glint", self.glint, self.glint >= 0.0, "must be >= 0")?;
@@ -168,20 +166,15 @@ impl Marschner {
             return plane.root_sum(p, phi);
         }
         let c = self.caustic(plane);
-        let g0 = gaussian(self.caustic_width, 0.0);
-        let (gl, gr) = (
-            gaussian(self.caustic_width, wrap_angle(phi - c.phi)),
-            gaussian(self.caustic_width, wrap_angle(phi + c.phi)),
-        );
-        let fade = (1.0 - c.t * gl / g0) * (1.0 - c.t * gr / g0);
+        let (fade, glint) = c.profile(phi);
         let smooth = if fade > 0.0 { plane.root_sum(2, phi) * fade } else { Rgb::ZERO };
-        smooth + c.glint * (gl + gr)
+        smooth + c.glint * glint
     }
 
     /// Where the TRT caustic lies at a plane, and how strong its glint is.
     fn caustic(&self, plane: &Plane) -> Caustic {
         let eta_p = plane.eta_p;
-        let (h_c, dh, t) = if eta_p < 2.0 {
+        let (h_c, dh, t, phi) = if eta_p < 2.0 {
             let h = ((4.0 - eta_p * eta_p) / 3.0).sqrt();
             // d^2 Phi / dh^2 of p = 2 at h_c.
             let d2 = 4.0 * h / (eta_p * eta_p - h * h).powf(1.5) - 2.0 * h / (1.0 - h * h).max(1e-300).powf(1.5);
@@ -190,14 +183,13 @@ impl Marschner {
             } else {
                 self.caustic_limit
             };
-            (h, dh, 1.0)
+            (h, dh, 1.0, wrap_angle(plane.deflection(2, h.asin())))
         } else {
             let x = ((eta_p - 2.0) / self.caustic_fade).clamp(0.0, 1.0);
-            (0.0, self.caustic_limit, 1.0 - x * x * (3.0 - 2.0 * x))
+            (0.0, self.caustic_limit, 1.0 - x * x * (3.0 - 2.0 * x), 0.0)
         };
-        let gamma_c = h_c.asin();
-        let phi = if eta_p < 2.0 { wrap_angle(plane.deflection(2, gamma_c)) } else { 0.0 };
-        Caustic { phi, t, glint: plane.attenuation(2, gamma_c) * (t * self.glint * dh) }
+        let glint = plane.attenuation(2, h_c.asin()) * (t * self.glint * dh);
+        Caustic { phi, t, width: self.caustic_width, glint }
     }
 
     fn spread_table(&self) -> &SpreadTable {
@@ -219,8 +211,22 @@ fn wrapped_gaussian(width: f64, x: f64) -> f64 {
 struct Caustic {
     phi: f64,
     t: f64,
+    /// Azimuthal width w_c.
+    width: f64,
     /// t k_G A(2, h_c) delta_h.
     glint: Rgb,
+}
+
+impl Caustic {
+    /// At azimuth phi: the factor fading the root sum out about +-phi_c,
+    /// (1 - t g(phi - phi_c) / g(0)) (1 - t g(phi + phi_c) / g(0)), and the glint's profile
+    /// g(phi - phi_c) + g(phi + phi_c) (g of width w_c), which [`Caustic::glint`] scales.
+    fn profile(&self, phi: f64) -> (f64, f64) {
+        let g0 = gaussian(self.width, 0.0);
+        let (gl, gr) =
+            (gaussian(self.width, wrap_angle(phi - self.phi)), gaussian(self.width, wrap_angle(phi + self.phi)));
+        ((1.0 - self.t * gl / g0) * (1.0 - self.t * gr / g0), gl + gr)
+    }
 }
 
 /// The normal plane at one difference angle theta_d.
@@ -333,8 +339,10 @@ pub struct MarschnerHit<'a> {
     azimuth_nodes: OnceLock<[Vec<(f64, f64)>; LOBES]>,
 }
 
-impl Marschner {
-    fn hit(&self, wo: DVec3) -> MarschnerHit<'_> {
+impl FiberModel for Marschner {
+    type Hit<'a> = MarschnerHit<'a>;
+
+    fn at(&self, wo: DVec3, _h: f64) -> MarschnerHit<'_> {
         let (sin_o, cos_o) = sin_cos_theta(wo);
         MarschnerHit {
             fiber: self,
@@ -343,14 +351,6 @@ impl Marschner {
             sampler_plane: self.plane(sin_o, cos_o),
             azimuth_nodes: OnceLock::new(),
         }
-    }
-}
-
-impl FiberModel for Marschner {
-    type Hit<'a> = MarschnerHit<'a>;
-
-    fn at(&self, wo: DVec3, _h: f64) -> MarschnerHit<'_> {
-        self.hit(wo)
     }
 }
 
@@ -530,28 +530,20 @@ impl SpreadTable {
                 let theta_d = FRAC_PI_2 * row as f64 / (SPREAD_ROWS - 1) as f64;
                 let plane = fiber.plane(theta_d.sin(), theta_d.cos());
                 let caustic = fiber.caustic(&plane);
-                let g0 = gaussian(fiber.caustic_width, 0.0);
                 std::array::from_fn(|p| {
                     let mut bins = vec![Rgb::ZERO; SPREAD_BINS];
                     let step = PI / SPREAD_SAMPLES as f64;
                     for k in 0..SPREAD_SAMPLES {
                         let g = -FRAC_PI_2 + (k as f64 + 0.5) * step;
                         let d = wrap_angle(plane.deflection(p, g));
-                        let fade = if p == 2 {
-                            let w = |x: f64| gaussian(fiber.caustic_width, wrap_angle(x)) / g0;
-                            (1.0 - caustic.t * w(d - caustic.phi)) * (1.0 - caustic.t * w(d + caustic.phi))
-                        } else {
-                            1.0
-                        };
+                        let fade = if p == 2 { caustic.profile(d).0 } else { 1.0 };
                         let b = (((d + PI) / dphi) as usize).min(SPREAD_BINS - 1);
                         bins[b] += plane.attenuation(p, g) * (0.5 * g.cos() * step * fade);
                     }
                     if p == 2 {
                         for (b, bin) in bins.iter_mut().enumerate() {
                             let x = -PI + (b as f64 + 0.5) * dphi;
-                            let g = gaussian(fiber.caustic_width, wrap_angle(x - caustic.phi))
-                                + gaussian(fiber.caustic_width, wrap_angle(x + caustic.phi));
-                            *bin += caustic.glint * (g * dphi);
+                            *bin += caustic.glint * (caustic.profile(x).1 * dphi);
                         }
                     }
                     let mut cum = Vec::with_capacity(SPREAD_BINS + 1);

@@ -93,7 +93,7 @@ pub struct ParamError {
     pub value: f64,
 }
 
-fn check(field: &'static str, value: f64, ok: bool, problem: &'static str) -> Result<(), ParamError> {
+pub(super) fn check(field: &'static str, value: f64, ok: bool, problem: &'static str) -> Result<(), ParamError> {
     if value.is_finite() && ok { Ok(()) } else { Err(ParamError { field, problem, value }) }
 }
 

@@ -41,7 +41,9 @@ pub struct ConvergeArgs {
     pub scene: Option<PathBuf>,
     /// Methods to compare, INTEGRATOR-SAMPLING, comma separated: dual-importance, dual-uniform,
     /// dual-light, single-importance, single-uniform, path-importance, path-uniform, and for a
-    /// Marschner fiber INTEGRATOR-thesis (its sampler with the thesis's stated density); a `dual`
+    /// Marschner fiber INTEGRATOR-thesis (its sampler with the thesis's stated density), for a
+    /// Sadeghi fiber INTEGRATOR-box_muller (Hery and Ramamoorthi's sampler), for a d'Eon 2014
+    /// fiber INTEGRATOR-iterative (its Appendix A loop as printed); a `dual`
     /// method may end in -K for K light samples per camera hit (dual-light-1, dual-light-4).
     #[arg(long, value_delimiter = ',', default_value = "dual-importance,dual-uniform")]
     pub methods: Vec<Method>,

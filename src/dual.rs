@@ -443,7 +443,7 @@ where
         let importance = match self.dual.sampling {
             Sampling::Light => return None,
             Sampling::Uniform => false,
-            Sampling::Importance | Sampling::Thesis => true,
+            Sampling::Importance | Sampling::Thesis | Sampling::BoxMuller | Sampling::Iterative => true,
         };
         let u = sampler.get_4d();
         // (u[1], u[2]) is the stratified pair of `Sampler::get_4d`.
@@ -466,7 +466,9 @@ where
         match self.dual.sampling {
             Sampling::Light => 0.0,
             Sampling::Uniform => 1.0 / SPHERE,
-            Sampling::Importance | Sampling::Thesis => self.mixture_pdf(self.fiber.pdf(wi)),
+            Sampling::Importance | Sampling::Thesis | Sampling::BoxMuller | Sampling::Iterative => {
+                self.mixture_pdf(self.fiber.pdf(wi))
+            }
         }
     }
 

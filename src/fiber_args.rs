@@ -1,6 +1,6 @@
 //! Command-line flags describing a fiber, shared by every command that needs one.
 
-use precompute::fiber::{Absorption, FiberParams, MarschnerParams, ModelKind, ParamError};
+use precompute::fiber::{Absorption, FiberParams, MarschnerParams, ModelKind, ParamError, SadeghiParams};
 
 /// Fiber material flags. Absorption comes from exactly one of --sigma-a, --eumelanin/--pheomelanin
 /// or --color; with none of them the hair is brown (eumelanin 1.3).
@@ -31,8 +31,10 @@ pub struct FiberArgs {
     /// Index of refraction of the fiber (> 1).
     #[arg(long, default_value_t = 1.55, allow_negative_numbers = true)]
     pub eta: f64,
-    /// Fiber scattering model: chiang (Chiang et al. 2016; --beta-m, --beta-n, --alpha) or
-    /// marschner (Marschner et al. 2003 as seed 003 uses it; --alpha-r, --beta-r).
+    /// Fiber scattering model: chiang (Chiang et al. 2016; --beta-m, --beta-n, --alpha),
+    /// marschner (Marschner et al. 2003 as seed 003 uses it; --alpha-r, --beta-r), sadeghi
+    /// (Sadeghi et al. 2010 as seed 000 gives it; --sadeghi-*) or deon2014 (d'Eon et al. 2014;
+    /// --beta-m as its roughness beta, --alpha).
     #[arg(long, default_value = "chiang")]
     pub model: ModelKind,
     /// Marschner: longitudinal shift of the R lobe in degrees (negative puts R toward the root).
@@ -41,6 +43,22 @@ pub struct FiberArgs {
     /// Marschner: longitudinal width of the R lobe in degrees.
     #[arg(long, default_value_t = MarschnerParams::default().beta_r, allow_negative_numbers = true)]
     pub beta_r: f64,
+    /// Sadeghi: longitudinal shift of the R lobe in degrees (negative puts R toward the root).
+    #[arg(long, default_value_t = SadeghiParams::default().alpha_r, allow_negative_numbers = true)]
+    pub sadeghi_alpha_r: f64,
+    /// Sadeghi: longitudinal width of the R lobe in degrees (TT's is half of it, TRT's twice).
+    #[arg(long, default_value_t = SadeghiParams::default().beta_r, allow_negative_numbers = true)]
+    pub sadeghi_beta_r: f64,
+    /// Sadeghi: azimuthal width of the TT lobe in degrees.
+    #[arg(long, default_value_t = SadeghiParams::default().gamma_tt, allow_negative_numbers = true)]
+    pub sadeghi_gamma_tt: f64,
+    /// Sadeghi: scales of the R, TT and TRT lobes' energies, "R,TT,TRT" (1: what a smooth fiber of
+    /// this absorption scatters at normal incidence).
+    #[arg(long, value_name = "R,TT,TRT", value_parser = parse_rgb, default_value = "1,1,1", allow_hyphen_values = true)]
+    pub sadeghi_intensity: [f64; 3],
+    /// Sadeghi: glint peak relative to the TRT lobe's.
+    #[arg(long, default_value_t = SadeghiParams::default().i_g, allow_negative_numbers = true)]
+    pub sadeghi_glint: f64,
 }
 
 impl FiberArgs {
@@ -60,6 +78,16 @@ impl FiberArgs {
             alpha: self.alpha,
             eta: self.eta,
             marschner: MarschnerParams { alpha_r: self.alpha_r, beta_r: self.beta_r, ..MarschnerParams::default() },
+            sadeghi: SadeghiParams {
+                alpha_r: self.sadeghi_alpha_r,
+                beta_r: self.sadeghi_beta_r,
+                gamma_tt: self.sadeghi_gamma_tt,
+                i_r: self.sadeghi_intensity[0],
+                i_tt: self.sadeghi_intensity[1],
+                i_trt: self.sadeghi_intensity[2],
+                i_g: self.sadeghi_glint,
+                ..SadeghiParams::default()
+            },
         };
         params.validate()?;
         Ok(params)

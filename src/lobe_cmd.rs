@@ -77,6 +77,21 @@ fn chart(image: &LobeImage, args: &LobeArgs) -> Result<image::RgbImage> {
             "Marschner fiber lobe, light at theta = {:.3} rad: alpha_R {} deg, beta_R {} deg, eta {}",
             args.theta, f.alpha_r, f.beta_r, f.eta
         ),
+        ModelKind::Sadeghi => format!(
+            "Sadeghi lobe, light at theta = {:.3} rad: alpha_R {}, beta_R {}, gamma_TT {} deg; I {}/{}/{}, I_g {}",
+            args.theta,
+            f.sadeghi_alpha_r,
+            f.sadeghi_beta_r,
+            f.sadeghi_gamma_tt,
+            f.sadeghi_intensity[0],
+            f.sadeghi_intensity[1],
+            f.sadeghi_intensity[2],
+            f.sadeghi_glint
+        ),
+        ModelKind::Deon2014 => format!(
+            "d'Eon 2014 fiber lobe, light at theta = {:.3} rad: beta {}, alpha {} deg, eta {}",
+            args.theta, f.beta_m, f.alpha, f.eta
+        ),
     };
     HeatMap {
         title: &title,

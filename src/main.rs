@@ -2,10 +2,12 @@ use clap::{Parser, Subcommand};
 use dualhair::calibrate_cmd::{self, CalibrateArgs};
 use dualhair::compare_cmd::{self, CompareArgs};
 use dualhair::converge_cmd::{self, ConvergeArgs};
+use dualhair::fibersim_cmd::{self, FibersimArgs};
 use dualhair::lobe_cmd::{self, LobeArgs};
 use dualhair::precompute_cmd::{self, PrecomputeCommand};
 use dualhair::render_cmd::{self, RenderArgs};
 use dualhair::resolve_cmd::{self, ResolveArgs};
+use dualhair::stability_cmd::{self, StabilityArgs};
 
 /// dualhair: a hair renderer that makes multiple scattering cheap (dual scattering with a
 /// voxel hair-density grid, d'Eon importance sampling, and a path-traced reference).
@@ -25,8 +27,13 @@ enum Command {
     Precompute(PrecomputeCommand),
     /// Write a lat-long image of a single fiber's scattering lobe.
     Lobe(LobeArgs),
+    /// Simulate a rough fiber's scattering by Monte Carlo (seed 001 sec. 2.1) into a lat-long image.
+    #[command(long_about = fibersim_cmd::LONG_ABOUT)]
+    Fibersim(FibersimArgs),
     /// Compare methods: error vs. spp and vs. wall time, with tables and charts.
     Converge(ConvergeArgs),
+    /// Measure where every fiber model and sampler fails over seed 001's parameter grid.
+    Stability(StabilityArgs),
     /// Compare an image with a reference over the hair: mean ratio and relative RMSE.
     Compare(CompareArgs),
     /// Fit dual's d_f and d_b to a path-traced reference of a scene.
@@ -42,7 +49,9 @@ fn main() -> std::process::ExitCode {
         Command::Render(args) => render_cmd::run(args),
         Command::Precompute(command) => precompute_cmd::run(command),
         Command::Lobe(args) => lobe_cmd::run(args),
+        Command::Fibersim(args) => fibersim_cmd::run(args),
         Command::Converge(args) => converge_cmd::run(args),
+        Command::Stability(args) => stability_cmd::run(args),
         Command::Compare(args) => compare_cmd::run(args),
         Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::Resolve(args) => resolve_cmd::run(args),

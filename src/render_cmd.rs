@@ -10,7 +10,7 @@ use crate::scene::{IntegratorKind, Sampling, Scene, SceneFile, ShadowMode};
 use crate::transmittance::ForwardLookup;
 use anyhow::{Context, Result, bail};
 use precompute::density::{DensityGrid, read_vdb};
-use precompute::fiber::{Fiber, FiberModel, MarschnerPdf, ModelKind, UniformSampled};
+use precompute::fiber::{Fiber, FiberModel, ModelKind, UniformSampled};
 use precompute::tables::Tables;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -173,8 +173,7 @@ pub fn render_scene(scene: &Scene, cache: &Cache, progress: bool) -> Result<Film
 /// what comparisons time.
 pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool) -> Result<Film> {
     let sampling = scene.render.sampling();
-    let pdf = if sampling == Sampling::Thesis { MarschnerPdf::Thesis } else { MarschnerPdf::Exact };
-    let fiber = Fiber::new(&scene.fiber, pdf)?;
+    let fiber = Fiber::new(&scene.fiber, sampling.fiber_sampler())?;
     let (spp, seed) = (scene.render.spp, scene.render.seed);
     if let Some(inputs) = dual {
         let d = &scene.dual;
@@ -203,7 +202,9 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
         IntegratorKind::Auto => bail!("`auto` must be resolved to an integrator first (resolve_auto)"),
     };
     match sampling {
-        Sampling::Importance | Sampling::Thesis => Ok(path_trace(scene, &fiber, max_depth, progress)),
+        Sampling::Importance | Sampling::Thesis | Sampling::BoxMuller | Sampling::Iterative => {
+            Ok(path_trace(scene, &fiber, max_depth, progress))
+        }
         Sampling::Uniform => Ok(path_trace(scene, &UniformSampled(fiber), max_depth, progress)),
         Sampling::Light => bail!("light sampling alone needs the dual integrator"),
     }

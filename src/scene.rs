@@ -9,7 +9,7 @@ use crate::light::{EnvMap, Environment, Lights, Sun};
 use crate::transmittance::LookupSettings;
 use anyhow::{Context, Result, bail, ensure};
 use glam::{DMat4, DVec3, EulerRot};
-use precompute::fiber::{FiberParams, ModelKind};
+use precompute::fiber::{FiberParams, ModelKind, SamplerKind};
 use precompute::spectrum::Rgb;
 use precompute::strands::{Generator, Strands, read_hair};
 use serde::{Deserialize, Serialize};
@@ -160,6 +160,25 @@ pub enum Sampling {
     /// The fiber's sampler with the density its source states in place of the density it has
     /// (Marschner only: the thesis's, seed 003 section 4.3). Biased; there to measure that.
     Thesis,
+    /// Hery and Ramamoorthi 2011's Box-Muller sampler as seed 000 describes it (Sadeghi only).
+    /// Biased at grazing angles; there to measure that.
+    #[value(name = "box_muller")]
+    BoxMuller,
+    /// d'Eon et al. 2014's iterative sampler as its Appendix A prints it (d'Eon 2014 only), with
+    /// the model's density: slightly biased at grazing angles; there to measure that.
+    Iterative,
+}
+
+impl Sampling {
+    /// The fiber sampler this sampling draws directions with.
+    pub fn fiber_sampler(self) -> SamplerKind {
+        match self {
+            Sampling::Thesis => SamplerKind::Thesis,
+            Sampling::BoxMuller => SamplerKind::BoxMuller,
+            Sampling::Iterative => SamplerKind::Iterative,
+            Sampling::Importance | Sampling::Uniform | Sampling::Light => SamplerKind::Exact,
+        }
+    }
 }
 
 /// The dual-scattering integrator's parameters (Zinke et al. 2008; design section 4).
@@ -373,6 +392,12 @@ impl SceneFile {
             bail!(
                 "render.sampling `thesis` is the Marschner model's (fiber.model \"marschner\"); this fiber's sampler has only its exact density"
             );
+        }
+        if r.sampling == Some(Sampling::BoxMuller) && self.fiber.model != ModelKind::Sadeghi {
+            bail!("render.sampling `box_muller` is the Sadeghi model's (fiber.model \"sadeghi\")");
+        }
+        if r.sampling == Some(Sampling::Iterative) && self.fiber.model != ModelKind::Deon2014 {
+            bail!("render.sampling `iterative` is the d'Eon 2014 model's (fiber.model \"deon2014\")");
         }
         let d = &self.dual;
         for (name, v) in [("dual.d_f", d.d_f), ("dual.d_b", d.d_b)] {

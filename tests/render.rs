@@ -77,11 +77,17 @@ fn single_is_path_at_depth_one() {
 }
 
 #[test]
-fn every_integrator_renders_the_marschner_fiber() {
-    // The other model behind the same interface: single is path at depth 1 for it too, multiple
-    // scattering adds light, and dual (its own tables) lands between single and path.
-    let json = BROWN_CURLS.replacen(r#""fiber": {"#, r#""fiber": {"model": "marschner", "#, 1);
-    assert!(json.contains("marschner"), "the scene has a fiber section to extend");
+fn every_integrator_renders_every_fiber_model() {
+    // The other models behind the same interface: single is path at depth 1 for each too,
+    // multiple scattering adds light, and dual (its own tables) lands between single and path.
+    for model in ["marschner", "sadeghi", "deon2014"] {
+        every_integrator_renders(model);
+    }
+}
+
+fn every_integrator_renders(model: &str) {
+    let json = BROWN_CURLS.replacen(r#""fiber": {"#, &format!(r#""fiber": {{"model": "{model}", "#), 1);
+    assert!(json.contains(model), "the scene has a fiber section to extend");
     let mut file = scene_from(&json);
     file.render.integrator = IntegratorKind::Single;
     let single = render(&file);
@@ -94,8 +100,8 @@ fn every_integrator_renders_the_marschner_fiber() {
     let dual = render(&file);
     assert!(dual.mean.iter().all(|p| p.is_finite()));
     let (s, d) = (hair_mean(&single).0, hair_mean(&dual).0);
-    println!("Marschner brown curls: single {s:.4}, dual {d:.4}, path {path:.4}");
-    assert!(s < d && d < 1.2 * path && path > 1.05 * s, "single {s}, dual {d}, path {path}");
+    println!("{model} brown curls: single {s:.4}, dual {d:.4}, path {path:.4}");
+    assert!(s < d && d < 1.2 * path && path > 1.05 * s, "{model}: single {s}, dual {d}, path {path}");
 }
 
 #[test]
@@ -220,6 +226,12 @@ fn bad_scenes_name_the_problem() {
             r#"{"hair": {"generate": {"kind": "ball"}}, "fiber": {"model": "marschner", "marschner": {"beta_r": 0}}}"#,
             "marschner.beta_r",
         ),
+        (r#"{"hair": {"generate": {"kind": "ball"}}, "render": {"sampling": "box_muller"}}"#, "Sadeghi model's"),
+        (
+            r#"{"hair": {"generate": {"kind": "ball"}}, "fiber": {"model": "sadeghi", "sadeghi": {"gamma_tt": -1}}}"#,
+            "gamma_tt",
+        ),
+        (r#"{"hair": {"generate": {"kind": "ball"}}, "fiber": {"model": "deon2015"}}"#, "deon2014"),
     ];
     let dir = tempfile::tempdir().unwrap();
     for (json, expect) in cases {

@@ -8,9 +8,11 @@
 pub mod conventions;
 pub mod density;
 pub mod fiber;
+pub mod fibersim;
 pub mod lobe;
 pub mod quadrature;
 pub mod special;
 pub mod spectrum;
+pub mod stability;
 pub mod strands;
 pub mod tables;

@@ -160,6 +160,39 @@ impl TableSettings {
                 let beta = params.marschner.beta_r.to_radians();
                 TableSettings { h_rule: params.h_rule(8.0), ..TableSettings::for_roughness(PI / 96.0, beta * beta) }
             }
+            ModelKind::Sadeghi => {
+                // Narrowest features: TT's longitudinal Gaussian, standard deviation 2 beta_TT =
+                // beta_R in theta_i (variance beta_R^2), and the narrower of the TT and glint
+                // azimuthal Gaussians (standard deviation gamma), resolved by phi panels 1.5 gamma
+                // wide (6 s with s = gamma / 4). Near grazing light f also has a ridge 1 / cos theta
+                // high along theta_i = -theta (cos theta_i / cos^2 theta_d), which lobe-sized panels
+                // miss: at least 32 x 16 panels. For the defaults a_f then agrees with rules twice
+                // as fine to 3e-4 at |theta| = 1.569 and to 2e-8 below 1.5 (16 x 8: 1.3e-3, 3e-6).
+                // An even count per half puts panel edges at phi = 0 and pi, the kinks of
+                // N_g(|phi| - phi_g) and of cos(phi / 2) on the circle.
+                let s = &params.sadeghi;
+                let beta = s.beta_r.to_radians();
+                let gamma = s.gamma_tt.min(s.gamma_g).to_radians();
+                let mut settings = TableSettings {
+                    h_rule: params.h_rule(8.0),
+                    ..TableSettings::for_roughness(gamma / 4.0, beta * beta)
+                };
+                settings.theta_i_panels = settings.theta_i_panels.max(32);
+                settings.phi_panels = settings.phi_panels.max(16);
+                settings.phi_panels += settings.phi_panels % 2;
+                settings
+            }
+            ModelKind::Deon2014 => {
+                // Seed 001: the narrowest azimuthal kernel is TT's Gaussian of standard deviation
+                // beta / sqrt(2), passed as the logistic scale with that standard deviation
+                // (s pi / sqrt(3)). The narrowest longitudinal lobes are TT's at normal incidence,
+                // standard deviation (eta - 1) beta, and R's toward grazing offsets,
+                // beta sqrt(2) cos(phi / 2) (eq. 6), resolved down to cos(phi / 2) = 1/4.
+                let beta = params.beta_m;
+                let scale = beta * std::f64::consts::FRAC_1_SQRT_2 * 3f64.sqrt() / PI;
+                let sd = beta * (params.eta - 1.0).min(std::f64::consts::SQRT_2 / 4.0);
+                TableSettings { h_rule: params.h_rule(8.0), ..TableSettings::for_roughness(scale, sd * sd) }
+            }
         }
     }
 

@@ -9,16 +9,20 @@
 mod attenuation;
 mod azimuthal;
 mod chiang;
+mod deon2014;
 mod longitudinal;
 mod marschner;
 mod params;
+mod sadeghi;
 
 pub use attenuation::{P_MAX, fresnel_dielectric};
 pub use azimuthal::scale_from_beta_n;
 pub use chiang::{Chiang, ChiangHit};
+pub use deon2014::{Deon2014, Deon2014Hit};
 pub use longitudinal::{Longitudinal, mp, variance_from_beta_m};
 pub use marschner::{Marschner, MarschnerHit, MarschnerParams, MarschnerPdf};
 pub use params::{Absorption, FiberParams, ModelKind, ParamError};
+pub use sadeghi::{Sadeghi, SadeghiHit, SadeghiParams, SadeghiSampler};
 
 use crate::conventions::SPHERE;
 use crate::spectrum::Rgb;
@@ -131,32 +135,77 @@ impl<H: FiberHit> FiberHit for UniformHit<H> {
     }
 }
 
+/// Which of a model's samplers to draw with: its exact one, or the flawed one its source
+/// publishes (kept to measure the flaw). A model without the named flawed sampler uses its exact
+/// one; scene validation rejects such a pairing before it gets here.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SamplerKind {
+    /// The sampler whose reported density is the density it draws with.
+    Exact,
+    /// Marschner: the thesis's sampler with its stated density (seed 003 section 4.3).
+    Thesis,
+    /// Sadeghi: Hery and Ramamoorthi 2011's Box-Muller sampler as seed 000 describes it.
+    BoxMuller,
+    /// d'Eon 2014: the seed's iterative sampler as printed (Appendix A), with the model's density.
+    Iterative,
+}
+
 /// The fiber model a [`FiberParams`] names: what commands and integrators hold, so that none of
 /// them asks which model it is.
 pub enum Fiber {
     Chiang(Chiang),
     Marschner(Marschner),
+    Sadeghi(Sadeghi),
+    Deon2014(Deon2014),
 }
 
 /// A [`Fiber`] at one hit.
 pub enum FiberAt<'a> {
     Chiang(ChiangHit<'a>),
     Marschner(MarschnerHit<'a>),
+    Sadeghi(SadeghiHit<'a>),
+    Deon2014(Deon2014Hit<'a>),
+}
+
+/// Calls `$f` on whichever hit a [`FiberAt`] holds.
+macro_rules! each_hit {
+    ($hit:expr, $h:ident => $f:expr) => {
+        match $hit {
+            FiberAt::Chiang($h) => $f,
+            FiberAt::Marschner($h) => $f,
+            FiberAt::Sadeghi($h) => $f,
+            FiberAt::Deon2014($h) => $f,
+        }
+    };
 }
 
 impl Fiber {
-    /// The model of `params`; `pdf` is the density the Marschner sampler reports (the others'
-    /// samplers are exact).
-    pub fn new(params: &FiberParams, pdf: MarschnerPdf) -> Result<Fiber, ParamError> {
+    /// The model of `params` drawing with `sampler`.
+    pub fn new(params: &FiberParams, sampler: SamplerKind) -> Result<Fiber, ParamError> {
         Ok(match params.model {
             ModelKind::Chiang => Fiber::Chiang(Chiang::new(params)?),
-            ModelKind::Marschner => Fiber::Marschner(Marschner::new(params, pdf)?),
+            ModelKind::Marschner => {
+                let pdf = if sampler == SamplerKind::Thesis { MarschnerPdf::Thesis } else { MarschnerPdf::Exact };
+                Fiber::Marschner(Marschner::new(params, pdf)?)
+            }
+            ModelKind::Sadeghi => {
+                let s =
+                    if sampler == SamplerKind::BoxMuller { SadeghiSampler::BoxMuller } else { SadeghiSampler::Cauchy };
+                Fiber::Sadeghi(Sadeghi::new(params, s)?)
+            }
+            ModelKind::Deon2014 => Fiber::Deon2014(Deon2014::with_sampler(params, sampler == SamplerKind::Iterative)?),
         })
+    }
+
+    /// Whether the model is far-field: f does not depend on the hit's offset h (every model but
+    /// Chiang's), so one hit serves every h.
+    pub fn far_field(&self) -> bool {
+        !matches!(self, Fiber::Chiang(_))
     }
 
     /// The model of `params` with its exact sampler.
     pub fn exact(params: &FiberParams) -> Result<Fiber, ParamError> {
-        Fiber::new(params, MarschnerPdf::Exact)
+        Fiber::new(params, SamplerKind::Exact)
     }
 }
 
@@ -167,45 +216,32 @@ impl FiberModel for Fiber {
         match self {
             Fiber::Chiang(m) => FiberAt::Chiang(m.at(wo, h)),
             Fiber::Marschner(m) => FiberAt::Marschner(m.at(wo, h)),
+            Fiber::Sadeghi(m) => FiberAt::Sadeghi(m.at(wo, h)),
+            Fiber::Deon2014(m) => FiberAt::Deon2014(m.at(wo, h)),
         }
     }
 }
 
 impl FiberHit for FiberAt<'_> {
     fn eval(&self, wi: DVec3) -> Rgb {
-        match self {
-            FiberAt::Chiang(h) => h.eval(wi),
-            FiberAt::Marschner(h) => h.eval(wi),
-        }
+        each_hit!(self, h => h.eval(wi))
     }
 
     fn sample(&self, u: [f64; 4]) -> Option<FiberSample> {
-        match self {
-            FiberAt::Chiang(h) => h.sample(u),
-            FiberAt::Marschner(h) => h.sample(u),
-        }
+        each_hit!(self, h => h.sample(u))
     }
 
     fn eval_pdf(&self, wi: DVec3) -> (Rgb, f64) {
-        match self {
-            FiberAt::Chiang(h) => h.eval_pdf(wi),
-            FiberAt::Marschner(h) => h.eval_pdf(wi),
-        }
+        each_hit!(self, h => h.eval_pdf(wi))
     }
 }
 
 impl SpreadHit for FiberAt<'_> {
     fn eval_spread(&self, wi: DVec3, spread: Rgb) -> Rgb {
-        match self {
-            FiberAt::Chiang(h) => h.eval_spread(wi, spread),
-            FiberAt::Marschner(h) => h.eval_spread(wi, spread),
-        }
+        each_hit!(self, h => h.eval_spread(wi, spread))
     }
 
     fn eval_both(&self, wi: DVec3, spread: Rgb) -> (Rgb, Rgb) {
-        match self {
-            FiberAt::Chiang(h) => h.eval_both(wi, spread),
-            FiberAt::Marschner(h) => h.eval_both(wi, spread),
-        }
+        each_hit!(self, h => h.eval_both(wi, spread))
     }
 }

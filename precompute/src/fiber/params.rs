@@ -3,6 +3,7 @@
 
 use super::azimuthal::scale_from_beta_n;
 use super::marschner::MarschnerParams;
+use super::sadeghi::SadeghiParams;
 use crate::lobe::h_rule;
 use crate::spectrum::Rgb;
 use serde::{Deserialize, Serialize};
@@ -36,6 +37,12 @@ pub enum ModelKind {
     /// Marschner et al. 2003 as the thesis uses it (seed 003 section 3.2.2): not energy
     /// conserving; parameters in `marschner`.
     Marschner,
+    /// Sadeghi et al. 2010's artist-friendly model as seed 000 gives it (ISHair eq. 1): not
+    /// energy conserving; parameters in `sadeghi`.
+    Sadeghi,
+    /// d'Eon, Marschner, Hanika 2014's non-separable lobes (seed 001): `beta_m` is its roughness
+    /// beta, with `alpha`, `eta` and the absorption.
+    Deon2014,
 }
 
 impl std::str::FromStr for ModelKind {
@@ -45,14 +52,17 @@ impl std::str::FromStr for ModelKind {
         match s {
             "chiang" => Ok(ModelKind::Chiang),
             "marschner" => Ok(ModelKind::Marschner),
-            _ => Err(format!("`{s}`: no such fiber model (chiang, marschner)")),
+            "sadeghi" => Ok(ModelKind::Sadeghi),
+            "deon2014" => Ok(ModelKind::Deon2014),
+            _ => Err(format!("`{s}`: no such fiber model (chiang, marschner, sadeghi, deon2014)")),
         }
     }
 }
 
 /// Parameters of a single fiber. Defaults: the Chiang model, brown hair (eumelanin 1.3),
 /// beta_m = beta_n = 0.3, alpha = 2 degrees, eta = 1.55. `beta_m`, `beta_n` and `alpha` are the
-/// Chiang model's; the Marschner model reads its own from `marschner`.
+/// Chiang model's (d'Eon 2014 reads `beta_m` as its roughness beta, and `alpha`); the Marschner and Sadeghi
+/// models read their own from `marschner` and `sadeghi`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FiberParams {
@@ -68,6 +78,7 @@ pub struct FiberParams {
     /// Index of refraction of the fiber relative to the surrounding medium (> 1).
     pub eta: f64,
     pub marschner: MarschnerParams,
+    pub sadeghi: SadeghiParams,
 }
 
 impl Default for FiberParams {
@@ -80,6 +91,7 @@ impl Default for FiberParams {
             alpha: 2.0,
             eta: 1.55,
             marschner: MarschnerParams::default(),
+            sadeghi: SadeghiParams::default(),
         }
     }
 }
@@ -109,6 +121,7 @@ impl FiberParams {
         check("alpha", self.alpha, self.alpha.abs() <= 20.0, "must be within +-20 degrees")?;
         check("eta", self.eta, self.eta > 1.0 && self.eta <= 4.0, "must be in (1, 4]")?;
         self.marschner.validate()?;
+        self.sadeghi.validate()?;
         match self.absorption {
             Absorption::SigmaA(s) => {
                 for v in s {
@@ -129,12 +142,12 @@ impl FiberParams {
     }
 
     /// Quadrature nodes over h for averaging the model's f over the fiber's width ([`h_rule`]),
-    /// panels `width` logistic scales wide for the Chiang model; one node for the Marschner
-    /// model, whose f does not depend on h.
+    /// panels `width` logistic scales wide for the Chiang model; one node for the far-field
+    /// models (Marschner, Sadeghi, d'Eon 2014), whose f does not depend on h.
     pub fn h_rule(&self, width: f64) -> Vec<(f64, f64)> {
         match self.model {
             ModelKind::Chiang => h_rule(width * scale_from_beta_n(self.beta_n), 1),
-            ModelKind::Marschner => vec![(0.0, 1.0)],
+            ModelKind::Marschner | ModelKind::Sadeghi | ModelKind::Deon2014 => vec![(0.0, 1.0)],
         }
     }
 

@@ -1,5 +1,6 @@
 //! Shared by the fiber-model tests: integrals over the sphere of directions and the chi-square
 //! test of a sampler against its density.
+#![allow(dead_code)] // each test binary that includes this module uses a part of it
 
 use glam::DVec3;
 use precompute::conventions::direction;

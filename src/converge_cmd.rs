@@ -248,6 +248,9 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
     };
     let file = scene_file(&render_args)?;
     let scene = file.build()?; // every value checked before any work
+    for method in args.methods.iter().chain(&args.truth) {
+        method.sampling.check_model(file.fiber.model).map_err(|e| anyhow::anyhow!("method {method}: sampling {e}"))?;
+    }
     let mut spps = args.spp.clone();
     spps.sort_unstable();
     spps.dedup();

@@ -10,7 +10,7 @@ use precompute::fiber::FiberParams;
 use precompute::fibersim::{FiberSim, MAX_HEIGHT, MAX_RAYS, MAX_WIDTH, Simulation};
 use precompute::lobe::LobeImage;
 use precompute::spectrum::Rgb;
-use std::f64::consts::{FRAC_PI_2, PI};
+use std::f64::consts::FRAC_PI_2;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -177,17 +177,5 @@ fn chart(image: &LobeImage, args: &FibersimArgs, params: &FiberParams) -> Result
         s[1],
         s[2]
     );
-    HeatMap {
-        title: &title,
-        x_label: "azimuth phi (rad)",
-        y_label: "inclination theta (rad)",
-        bar_label: "luminance, exiting energy (1/sr)",
-        xs: (-PI, PI),
-        ys: (-FRAC_PI_2, FRAC_PI_2),
-        width: image.width,
-        height: image.height,
-        values: &values,
-        decades: 4.0,
-    }
-    .draw()
+    HeatMap::lat_long(&title, "luminance, exiting energy (1/sr)", image.width, image.height, &values).draw()
 }

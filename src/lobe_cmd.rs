@@ -6,7 +6,7 @@ use crate::plot::HeatMap;
 use anyhow::{Result, bail};
 use precompute::fiber::{Fiber, ModelKind};
 use precompute::lobe::{LobeImage, lobe_image};
-use std::f64::consts::{FRAC_PI_2, PI};
+use std::f64::consts::FRAC_PI_2;
 use std::path::PathBuf;
 
 /// Writes the lobe of a fiber lit from inclination --theta (azimuth 0) as a lat-long image:
@@ -93,17 +93,5 @@ fn chart(image: &LobeImage, args: &LobeArgs) -> Result<image::RgbImage> {
             args.theta, f.beta_m, f.alpha, f.eta
         ),
     };
-    HeatMap {
-        title: &title,
-        x_label: "azimuth phi (rad)",
-        y_label: "inclination theta (rad)",
-        bar_label: "luminance, h-averaged f cos (1/sr)",
-        xs: (-PI, PI),
-        ys: (-FRAC_PI_2, FRAC_PI_2),
-        width: image.width,
-        height: image.height,
-        values: &values,
-        decades: 4.0,
-    }
-    .draw()
+    HeatMap::lat_long(&title, "luminance, h-averaged f cos (1/sr)", image.width, image.height, &values).draw()
 }

@@ -30,7 +30,25 @@ pub struct HeatMap<'a> {
     pub decades: f64,
 }
 
-impl HeatMap<'_> {
+impl<'a> HeatMap<'a> {
+    /// A lat-long image of directions in [`precompute::lobe`]'s layout (azimuth -pi..pi, inclination
+    /// pi/2 at the top), over four decades.
+    pub fn lat_long(title: &'a str, bar_label: &'a str, width: usize, height: usize, values: &'a [f64]) -> Self {
+        use std::f64::consts::{FRAC_PI_2, PI};
+        HeatMap {
+            title,
+            x_label: "azimuth phi (rad)",
+            y_label: "inclination theta (rad)",
+            bar_label,
+            xs: (-PI, PI),
+            ys: (-FRAC_PI_2, FRAC_PI_2),
+            width,
+            height,
+            values,
+            decades: 4.0,
+        }
+    }
+
     /// The heat map alone, with its color bar.
     pub fn draw(&self) -> Result<image::RgbImage> {
         let max = self.values.iter().copied().fold(f64::MIN_POSITIVE, f64::max).log10();

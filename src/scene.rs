@@ -170,6 +170,19 @@ pub enum Sampling {
 }
 
 impl Sampling {
+    /// An error unless `model` has this sampler: `thesis`, `box_muller` and `iterative` are one
+    /// model's flawed samplers each.
+    pub fn check_model(self, model: ModelKind) -> std::result::Result<(), String> {
+        let (owner, name) = match self {
+            Sampling::Thesis => (ModelKind::Marschner, "the Marschner model's (fiber.model \"marschner\")"),
+            Sampling::BoxMuller => (ModelKind::Sadeghi, "the Sadeghi model's (fiber.model \"sadeghi\")"),
+            Sampling::Iterative => (ModelKind::Deon2014, "the d'Eon 2014 model's (fiber.model \"deon2014\")"),
+            Sampling::Importance | Sampling::Uniform | Sampling::Light => return Ok(()),
+        };
+        let value = clap::ValueEnum::to_possible_value(&self).map(|v| v.get_name().to_string()).unwrap_or_default();
+        if model == owner { Ok(()) } else { Err(format!("`{value}` is {name}, not this fiber's")) }
+    }
+
     /// The fiber sampler this sampling draws directions with.
     pub fn fiber_sampler(self) -> SamplerKind {
         match self {
@@ -388,16 +401,8 @@ impl SceneFile {
         if r.sampling == Some(Sampling::Light) && r.integrator != IntegratorKind::Dual {
             bail!("render.sampling `light` needs the dual integrator (path tracing must sample fiber directions)");
         }
-        if r.sampling == Some(Sampling::Thesis) && self.fiber.model != ModelKind::Marschner {
-            bail!(
-                "render.sampling `thesis` is the Marschner model's (fiber.model \"marschner\"); this fiber's sampler has only its exact density"
-            );
-        }
-        if r.sampling == Some(Sampling::BoxMuller) && self.fiber.model != ModelKind::Sadeghi {
-            bail!("render.sampling `box_muller` is the Sadeghi model's (fiber.model \"sadeghi\")");
-        }
-        if r.sampling == Some(Sampling::Iterative) && self.fiber.model != ModelKind::Deon2014 {
-            bail!("render.sampling `iterative` is the d'Eon 2014 model's (fiber.model \"deon2014\")");
+        if let Some(s) = r.sampling {
+            s.check_model(self.fiber.model).map_err(|e| anyhow::anyhow!("render.sampling {e}"))?;
         }
         let d = &self.dual;
         for (name, v) in [("dual.d_f", d.d_f), ("dual.d_b", d.d_b)] {

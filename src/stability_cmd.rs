@@ -295,18 +295,7 @@ fn lobes(dir: &Path, args: &StabilityArgs) -> Result<()> {
         let maps: Vec<HeatMap> = images
             .iter()
             .zip(&values)
-            .map(|((name, _), v)| HeatMap {
-                title: name,
-                x_label: "azimuth phi (rad)",
-                y_label: "inclination theta (rad)",
-                bar_label: "luminance, h-averaged f cos (1/sr)",
-                xs: (-std::f64::consts::PI, std::f64::consts::PI),
-                ys: (-std::f64::consts::FRAC_PI_2, std::f64::consts::FRAC_PI_2),
-                width: w,
-                height: h,
-                values: v,
-                decades: 4.0,
-            })
+            .map(|((name, _), v)| HeatMap::lat_long(name, "luminance, h-averaged f cos (1/sr)", w, h, v))
             .collect();
         let title = format!(
             "lobes binned {w}x{h}, light at theta_i = {}: beta {}, alpha {} deg, mu_a {}, eta {}",

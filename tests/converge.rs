@@ -84,4 +84,8 @@ fn bad_arguments_are_named() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("light sampling alone is for dual only"));
     let out = converge(dir.path(), &["--methods", "dual-fast"]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("no such sampling"));
+    // Another model's flawed sampler is named, not silently replaced by this model's exact one.
+    let out = converge(dir.path(), &["--methods", "path-box_muller"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("`box_muller` is the Sadeghi model's"));
 }

@@ -1,13 +1,11 @@
 //! End-to-end checks of `dualhair fibersim`: the written EXR integrates to the albedo it prints,
 //! the PNG is a picture, and bad input fails with a message and no file.
 
+mod common;
+
+use common::{assert_each_fails_naming, assert_picture, dualhair};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::path::Path;
-use std::process::Command;
-
-fn dualhair(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_dualhair")).args(args).output().unwrap()
-}
 
 /// sum(pixel cos(theta) dtheta dphi) per channel of a lat-long EXR, with its size.
 fn exr_albedo(path: &Path) -> ((usize, usize), [f64; 3]) {
@@ -82,11 +80,7 @@ fn png_is_a_picture() {
     let path = dir.path().join("sim.png");
     let out = dualhair(&["fibersim", "--rays", "20000", "--beta-m", "0.2", "-o", path.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let img = image::open(&path).unwrap().to_rgb8();
-    let mut colors: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
-    colors.sort();
-    colors.dedup();
-    assert!(colors.len() > 50, "only {} colors", colors.len());
+    assert_picture(&path);
 }
 
 #[test]
@@ -94,7 +88,7 @@ fn bad_input_is_an_error_naming_the_problem_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("sim.exr");
     let p = path.to_str().unwrap();
-    for (args, expect) in [
+    let cases = [
         (vec!["fibersim", "--theta", "3", "-o", p], "--theta"),
         (vec!["fibersim", "--rays", "0", "-o", p], "--rays"),
         (vec!["fibersim", "--rays", "2000000000", "-o", p], "--rays"),
@@ -104,11 +98,6 @@ fn bad_input_is_an_error_naming_the_problem_and_writes_nothing() {
         (vec!["fibersim", "--height", "100000", "-o", p], "--height"),
         (vec!["fibersim", "--lobe", "trrt", "-o", p], "trrt"),
         (vec!["fibersim", "-o", "sim.tiff"], "unsupported output"),
-    ] {
-        let out = dualhair(&args);
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success(), "{args:?} succeeded");
-        assert!(err.contains(expect), "{args:?}: {err}");
-    }
-    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "a failed run left a file behind");
+    ];
+    assert_each_fails_naming(&cases, dir.path());
 }

@@ -1,12 +1,10 @@
 //! End-to-end checks of `dualhair lobe`: the written EXR integrates to the albedo, the PNG is a
 //! picture, and bad input fails with a message and no file.
 
-use std::f64::consts::{FRAC_PI_2, PI, TAU};
-use std::process::Command;
+mod common;
 
-fn dualhair(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_dualhair")).args(args).output().unwrap()
-}
+use common::{assert_each_fails_naming, assert_picture, dualhair};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 #[test]
 fn exr_lobe_integrates_to_one_without_absorption() {
@@ -59,12 +57,7 @@ fn png_lobe_is_a_picture() {
     let out =
         dualhair(&["lobe", "--eumelanin", "1.3", "--width", "64", "--height", "32", "-o", path.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let img = image::open(&path).unwrap().to_rgb8();
-    // Not blank: the heat map uses many colors.
-    let mut colors: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
-    colors.sort();
-    colors.dedup();
-    assert!(colors.len() > 50, "only {} colors", colors.len());
+    assert_picture(&path);
 }
 
 #[test]
@@ -72,7 +65,7 @@ fn bad_input_is_an_error_naming_the_problem_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("lobe.exr");
     let p = path.to_str().unwrap();
-    for (args, expect) in [
+    let cases = [
         (vec!["lobe", "--beta-m", "0", "-o", p], "beta_m"),
         (vec!["lobe", "--beta-n", "nan", "-o", p], "beta_n"),
         (vec!["lobe", "--theta", "2", "-o", p], "--theta"),
@@ -82,11 +75,6 @@ fn bad_input_is_an_error_naming_the_problem_and_writes_nothing() {
         (vec!["lobe", "--eta", "0.5", "-o", p], "eta"),
         (vec!["lobe", "--width", "0", "-o", p], "--width"),
         (vec!["lobe", "-o", "lobe.tiff"], "unsupported output"),
-    ] {
-        let out = dualhair(&args);
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success(), "{args:?} succeeded");
-        assert!(err.contains(expect), "{args:?}: {err}");
-    }
-    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "a failed run left a file behind");
+    ];
+    assert_each_fails_naming(&cases, dir.path());
 }

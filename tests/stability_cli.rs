@@ -2,11 +2,9 @@
 //! method is measured, the known failure (Box-Muller's density at grazing light, seed 000
 //! Appendix B) shows where the exact sampler of the same model does not, and bad input fails.
 
-use std::process::Command;
+mod common;
 
-fn dualhair(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_dualhair")).args(args).output().unwrap()
-}
+use common::dualhair;
 
 #[test]
 fn quick_run_writes_every_output_and_shows_box_mullers_failure() {

@@ -14,7 +14,7 @@ use precompute::spectrum::Rgb;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
-use sphere::{chi_square_p_value, sphere_quadrature};
+use sphere::{chi_square_p_value, fresnel, mean_and_error, sphere_quadrature};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 const ETA: f64 = 1.55;
@@ -56,16 +56,6 @@ fn composed_exit(p: usize, a: [f64; 3], theta: f64, h: f64, eta: f64) -> f64 {
     }
 }
 
-/// Unpolarized Fresnel reflectance of a dielectric of index `eta` at incidence cosine `c`, from the
-/// two polarizations (Hecht), independently of the crate's.
-fn fresnel(c: f64, eta: f64) -> f64 {
-    let s = (1.0 - c * c).sqrt() / eta;
-    let ct = (1.0 - s * s).sqrt();
-    let rs = (c - eta * ct) / (c + eta * ct);
-    let rp = (eta * c - ct) / (eta * c + ct);
-    0.5 * (rs * rs + rp * rp)
-}
-
 /// The smooth, clear cylinder's energy per lobe for light at theta (seed eq. 4 integrated over phi):
 /// (1/2) int F dh, (1/2) int (1 - F)^2 dh, (1/2) int (1 - F)^2 F dh, F at cos theta cos(asin h).
 fn smooth_energies(theta: f64, eta: f64) -> [f64; 3] {
@@ -100,19 +90,6 @@ fn sphere_integrals<const N: usize>(
             row
         })
         .reduce(|| [0.0; N], |a, b| std::array::from_fn(|k| a[k] + b[k]))
-}
-
-/// Mean and standard error of the green weight f / pdf over `n` draws of `draw`.
-fn estimate(n: usize, seed: u64, draw: impl Fn([f64; 4]) -> Option<f64>) -> (f64, f64) {
-    let mut rng = Pcg64::seed_from_u64(seed);
-    let (mut s, mut s2) = (0.0, 0.0);
-    for _ in 0..n {
-        let w = draw(rng.random()).unwrap_or(0.0);
-        s += w;
-        s2 += w * w;
-    }
-    let mean = s / n as f64;
-    (mean, ((s2 / n as f64 - mean * mean) / n as f64).sqrt())
 }
 
 #[test]
@@ -382,7 +359,7 @@ fn smooth_limit_albedo_is_the_smooth_cylinders() {
     for (alpha, theta_o) in [(0.0, 0.2), (4.0, -0.9), (-4.0, 1.3)] {
         let model = fiber(0.0025, alpha, 0.0);
         let hit = model.at(direction(theta_o, -1.0), 0.0);
-        let (mean, se) = estimate(20_000, 11, |u| hit.sample(u).map(|s| s.weight().0[1]));
+        let (mean, se) = mean_and_error(20_000, 11, |u| hit.sample(u).map(|s| s.weight().0[1]));
         let want: f64 = smooth_energies(theta_o, ETA).iter().sum();
         println!("beta 0.0025, alpha {alpha}, theta_o {theta_o}: {mean:.5} +- {se:.1e} vs {want:.5}");
         assert!((mean - want).abs() < 4.0 * se + 1e-3 * want, "{mean} +- {se} vs {want}");
@@ -435,8 +412,8 @@ fn importance_and_uniform_albedo_agree() {
     for (i, theta_o) in [0.5, -1.3].into_iter().enumerate() {
         let wo = direction(theta_o, 0.0);
         let (hit, flat) = (model.at(wo, 0.0), uniform.at(wo, 0.0));
-        let (a, sa) = estimate(40_000, 30 + i as u64, |u| hit.sample(u).map(|s| s.weight().0[1]));
-        let (b, sb) = estimate(200_000, 40 + i as u64, |u| flat.sample(u).map(|s| s.weight().0[1]));
+        let (a, sa) = mean_and_error(40_000, 30 + i as u64, |u| hit.sample(u).map(|s| s.weight().0[1]));
+        let (b, sb) = mean_and_error(200_000, 40 + i as u64, |u| flat.sample(u).map(|s| s.weight().0[1]));
         println!("theta_o {theta_o}: importance {a:.5} +- {sa:.5}, uniform {b:.5} +- {sb:.5}");
         assert!((a - b).abs() < 4.0 * (sa * sa + sb * sb).sqrt());
     }
@@ -519,8 +496,8 @@ fn seed_iteration_is_biased_where_its_density_departs_from_the_models() {
         let model = Deon2014::new(&params(0.3, 2.0, ETA, brown)).unwrap();
         let hit = model.at(direction(theta_o, 0.0), 0.0);
         let truth = sphere_quadrature(|wi| hit.eval(wi).0[1], 100, 140);
-        let (a, sa) = estimate(100_000, 50 + i as u64, |u| hit.sample(u).map(|s| s.weight().0[1]));
-        let (b, sb) = estimate(100_000, 50 + i as u64, |u| hit.sample_iterated(u).map(|(s, _)| s.weight().0[1]));
+        let (a, sa) = mean_and_error(100_000, 50 + i as u64, |u| hit.sample(u).map(|s| s.weight().0[1]));
+        let (b, sb) = mean_and_error(100_000, 50 + i as u64, |u| hit.sample_iterated(u).map(|(s, _)| s.weight().0[1]));
         println!(
             "theta_o {theta_o}: truth {truth:.5}; exact {a:.5} +- {sa:.5}; seed's loop {b:.5} +- {sb:.5} ({:+.2}%, {:+.1} standard errors)",
             100.0 * (b / truth - 1.0),

@@ -11,7 +11,7 @@ use precompute::fiber::{
 use precompute::spectrum::Rgb;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use sphere::{chi_square_p_value, sphere_quadrature};
+use sphere::{chi_square_p_value, fresnel, sphere_quadrature, weight_mean};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 fn params(sigma_a: f64, alpha_r: f64, beta_r: f64) -> FiberParams {
@@ -36,16 +36,6 @@ fn colored(eumelanin: f64, pheomelanin: f64) -> Marschner {
 
 fn random_direction(rng: &mut Pcg64) -> DVec3 {
     direction((2.0 * rng.random::<f64>() - 1.0).asin(), PI * (2.0 * rng.random::<f64>() - 1.0))
-}
-
-/// Unpolarized Fresnel reflectance of a dielectric of index `eta` at incidence cosine `c`, written
-/// out from the two polarizations (Hecht), independently of the crate's.
-fn fresnel(c: f64, eta: f64) -> f64 {
-    let s = (1.0 - c * c).sqrt() / eta;
-    let ct = (1.0 - s * s).sqrt();
-    let rs = (c - eta * ct) / (c + eta * ct);
-    let rp = (eta * c - ct) / (eta * c + ct);
-    0.5 * (rs * rs + rp * rp)
 }
 
 #[test]
@@ -116,20 +106,6 @@ fn exact_density_integrates_to_one_and_matches_the_samples() {
     }
 }
 
-/// Importance-sampled estimate of the albedo int f cos dw (green) and its standard error.
-fn importance_albedo(model: &Marschner, wo: DVec3, n: usize, seed: u64) -> (f64, f64) {
-    let hit = model.at(wo, 0.0);
-    let mut rng = Pcg64::seed_from_u64(seed);
-    let (mut s, mut s2) = (0.0, 0.0);
-    for _ in 0..n {
-        let w = hit.sample(rng.random()).map_or(0.0, |s| s.weight().0[1]);
-        s += w;
-        s2 += w * w;
-    }
-    let mean = s / n as f64;
-    (mean, ((s2 / n as f64 - mean * mean) / n as f64).sqrt())
-}
-
 #[test]
 fn exact_density_is_unbiased_and_the_thesis_density_is_not_the_samplers() {
     // The albedo by quadrature (truth) against importance sampling with the exact density: equal
@@ -143,7 +119,7 @@ fn exact_density_is_unbiased_and_the_thesis_density_is_not_the_samplers() {
         let exact = fiber(sigma_a, MarschnerPdf::Exact);
         let hit = exact.at(wo, 0.0);
         let truth = sphere_quadrature(|wi| hit.eval(wi).0[1], 240, 240);
-        let (e, e_se) = importance_albedo(&exact, wo, 400_000, 5);
+        let (e, e_se) = weight_mean(&exact.at(wo, 0.0), 400_000, 5);
         let thesis = fiber(sigma_a, MarschnerPdf::Thesis);
         let stated = thesis.at(wo, 0.0);
         let stated_total = sphere_quadrature(|wi| stated.pdf(wi), 240, 240);

@@ -14,7 +14,7 @@ use precompute::quadrature::composite;
 use precompute::spectrum::Rgb;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use sphere::{chi_square_p_value, sphere_quadrature};
+use sphere::{chi_square_p_value, sphere_quadrature, weight_mean};
 use statrs::function::erf::erfc;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, SQRT_2, TAU};
 
@@ -39,19 +39,6 @@ fn lobes(sigma_a: [f64; 3], i: [f64; 4], sampler: SadeghiSampler) -> Sadeghi {
 
 fn random_direction(rng: &mut Pcg64) -> DVec3 {
     direction((2.0 * rng.random::<f64>() - 1.0).asin(), PI * (2.0 * rng.random::<f64>() - 1.0))
-}
-
-/// Mean and standard error of the green sample weights f cos / pdf (a failed draw weighs 0).
-fn weight_mean(hit: &impl FiberHit, n: usize, seed: u64) -> (f64, f64) {
-    let mut rng = Pcg64::seed_from_u64(seed);
-    let (mut s, mut s2) = (0.0, 0.0);
-    for _ in 0..n {
-        let w = hit.sample(rng.random()).map_or(0.0, |s| s.weight().0[1]);
-        s += w;
-        s2 += w * w;
-    }
-    let mean = s / n as f64;
-    (mean, ((s2 / n as f64 - mean * mean) / n as f64).sqrt())
 }
 
 /// The green albedo int f |cos theta_i| d omega by quadrature.

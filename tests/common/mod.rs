@@ -40,3 +40,29 @@ pub fn bpy_python() -> Option<PathBuf> {
     let works = Command::new(&candidate).args(["-c", "import bpy, numpy"]).output().is_ok_and(|o| o.status.success());
     works.then_some(candidate)
 }
+
+/// Runs the `dualhair` program with `args`.
+pub fn dualhair(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_dualhair")).args(args).output().unwrap()
+}
+
+/// The PNG at `path` is a picture, not a blank: a heat map uses many colors.
+pub fn assert_picture(path: &Path) {
+    let img = image::open(path).unwrap().to_rgb8();
+    let mut colors: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    colors.sort();
+    colors.dedup();
+    assert!(colors.len() > 50, "only {} colors", colors.len());
+}
+
+/// Every run in `cases` fails with a message containing its expected text, and none leaves a file
+/// in `dir`.
+pub fn assert_each_fails_naming(cases: &[(Vec<&str>, &str)], dir: &Path) {
+    for (args, expect) in cases {
+        let out = dualhair(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(err.contains(expect), "{args:?}: {err}");
+    }
+    assert_eq!(std::fs::read_dir(dir).unwrap().count(), 0, "a failed run left a file behind");
+}

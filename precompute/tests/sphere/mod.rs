@@ -69,3 +69,32 @@ pub fn chi_square_p_value(model: &impl FiberModel, wo: DVec3, h: f64, samples: u
     println!("chi2 = {stat:.1} with {} dof, p = {p:.4}", dof - 1);
     (p, dof)
 }
+
+/// Mean and standard error of `n` draws of `draw` from seeded uniform numbers (a failed draw
+/// counts 0), e.g. the green sample weight f cos / pdf.
+pub fn mean_and_error(n: usize, seed: u64, draw: impl Fn([f64; 4]) -> Option<f64>) -> (f64, f64) {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let (mut s, mut s2) = (0.0, 0.0);
+    for _ in 0..n {
+        let w = draw(rng.random()).unwrap_or(0.0);
+        s += w;
+        s2 += w * w;
+    }
+    let mean = s / n as f64;
+    (mean, ((s2 / n as f64 - mean * mean) / n as f64).sqrt())
+}
+
+/// [`mean_and_error`] of the green sample weight of `hit`'s sampler: its estimate of the albedo.
+pub fn weight_mean(hit: &impl FiberHit, n: usize, seed: u64) -> (f64, f64) {
+    mean_and_error(n, seed, |u| hit.sample(u).map(|s| s.weight().0[1]))
+}
+
+/// Unpolarized Fresnel reflectance of a dielectric of index `eta` at incidence cosine `c`, written
+/// out from the two polarizations (Hecht), independently of the crate's.
+pub fn fresnel(c: f64, eta: f64) -> f64 {
+    let s = (1.0 - c * c).sqrt() / eta;
+    let ct = (1.0 - s * s).sqrt();
+    let rs = (c - eta * ct) / (c + eta * ct);
+    let rp = (eta * c - ct) / (eta * c + ct);
+    0.5 * (rs * rs + rp * rp)
+}

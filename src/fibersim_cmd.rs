@@ -2,13 +2,12 @@
 //! a lat-long image, directly comparable with `dualhair lobe`.
 
 use crate::fiber_args::FiberArgs;
-use crate::output::{ImageFormat, write_exr, write_png};
-use crate::plot::HeatMap;
+use crate::lobe_cmd::write_lobe_image;
+use crate::output::ImageFormat;
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use precompute::fiber::FiberParams;
 use precompute::fibersim::{FiberSim, MAX_HEIGHT, MAX_RAYS, MAX_WIDTH, Simulation};
-use precompute::lobe::LobeImage;
 use precompute::spectrum::Rgb;
 use std::f64::consts::FRAC_PI_2;
 use std::path::PathBuf;
@@ -95,7 +94,7 @@ pub fn run(args: &FibersimArgs) -> Result<()> {
             bail!("{name} must be between 1 and {max}, got {v}");
         }
     }
-    let format = ImageFormat::from_path(&args.output)?;
+    ImageFormat::from_path(&args.output)?; // an unsupported name fails before any work
     let params = args.fiber.params()?;
     let fiber = FiberSim::new(&params, args.theta)?;
 
@@ -126,13 +125,7 @@ pub fn run(args: &FibersimArgs) -> Result<()> {
         Lobe::Rest => &sim.images[3],
         Lobe::All => &sim.total_image(),
     };
-    match format {
-        ImageFormat::Exr => {
-            let pixels: Vec<[f32; 3]> = image.pixels.iter().map(|p| p.0.map(|c| c as f32)).collect();
-            write_exr(&args.output, image.width, image.height, &pixels)?;
-        }
-        ImageFormat::Png => write_png(&args.output, &chart(image, args, &params)?)?,
-    }
+    write_lobe_image(&args.output, image, &title(args, &params), "luminance, exiting energy (1/sr)")?;
     println!(
         "wrote {} ({}x{}, {}); {} rays in {:.2} s ({:.2} M rays/s)",
         args.output.display(),
@@ -162,11 +155,10 @@ fn report(sim: &Simulation) {
     println!("  {:<16} {}", "truncated", rgb(t.truncated));
 }
 
-/// A log-scale heat map of the image's luminance, titled with the lobe and the parameters.
-fn chart(image: &LobeImage, args: &FibersimArgs, params: &FiberParams) -> Result<image::RgbImage> {
-    let values: Vec<f64> = image.pixels.iter().map(|p| p.luminance()).collect();
+/// The chart's title: the lobe and the parameters.
+fn title(args: &FibersimArgs, params: &FiberParams) -> String {
     let s = params.sigma_a().0;
-    let title = format!(
+    format!(
         "Simulated fiber, {}: theta_i {:.3}, beta {}, alpha {} deg, eta {}, sigma_a {:.2}/{:.2}/{:.2}",
         args.lobe.name(),
         args.theta,
@@ -176,6 +168,5 @@ fn chart(image: &LobeImage, args: &FibersimArgs, params: &FiberParams) -> Result
         s[0],
         s[1],
         s[2]
-    );
-    HeatMap::lat_long(&title, "luminance, exiting energy (1/sr)", image.width, image.height, &values).draw()
+    )
 }

@@ -7,7 +7,7 @@ use anyhow::{Result, bail};
 use precompute::fiber::{Fiber, ModelKind};
 use precompute::lobe::{LobeImage, lobe_image};
 use std::f64::consts::FRAC_PI_2;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Writes the lobe of a fiber lit from inclination --theta (azimuth 0) as a lat-long image:
 /// x = azimuth from -pi (left) to pi (right), y = inclination from +pi/2 (top) to -pi/2 (bottom).
@@ -40,18 +40,12 @@ pub fn run(args: &LobeArgs) -> Result<()> {
             bail!("{name} must be between 1 and 16384, got {v}");
         }
     }
-    let format = ImageFormat::from_path(&args.output)?;
+    ImageFormat::from_path(&args.output)?; // an unsupported name fails before any work
     let params = args.fiber.params()?;
     let model = Fiber::exact(&params)?;
     let rule = params.h_rule(1.0);
     let image = lobe_image(&model, args.theta, args.width, args.height, &rule);
-    match format {
-        ImageFormat::Exr => {
-            let pixels: Vec<[f32; 3]> = image.pixels.iter().map(|p| p.0.map(|c| c as f32)).collect();
-            write_exr(&args.output, image.width, image.height, &pixels)?;
-        }
-        ImageFormat::Png => write_png(&args.output, &chart(&image, args)?)?,
-    }
+    write_lobe_image(&args.output, &image, &title(args), "luminance, h-averaged f cos (1/sr)")?;
     let a = image.albedo().0;
     println!(
         "wrote {} ({}x{}); albedo (R, G, B) = ({:.4}, {:.4}, {:.4})",
@@ -65,10 +59,25 @@ pub fn run(args: &LobeArgs) -> Result<()> {
     Ok(())
 }
 
-fn chart(image: &LobeImage, args: &LobeArgs) -> Result<image::RgbImage> {
+/// Writes a lat-long lobe image (this command's or `fibersim`'s): `.exr` as linear RGB, `.png` as
+/// a log-scale heat map of its luminance titled `title`, the color bar labeled `bar_label`.
+pub fn write_lobe_image(path: &Path, image: &LobeImage, title: &str, bar_label: &str) -> Result<()> {
+    match ImageFormat::from_path(path)? {
+        ImageFormat::Exr => {
+            let pixels: Vec<[f32; 3]> = image.pixels.iter().map(|p| p.0.map(|c| c as f32)).collect();
+            write_exr(path, image.width, image.height, &pixels)
+        }
+        ImageFormat::Png => {
+            let values: Vec<f64> = image.pixels.iter().map(|p| p.luminance()).collect();
+            write_png(path, &HeatMap::lat_long(title, bar_label, image.width, image.height, &values).draw()?)
+        }
+    }
+}
+
+/// The chart's title: the model and its parameters.
+fn title(args: &LobeArgs) -> String {
     let f = &args.fiber;
-    let values: Vec<f64> = image.pixels.iter().map(|p| p.luminance()).collect();
-    let title = match f.model {
+    match f.model {
         ModelKind::Chiang => format!(
             "Chiang fiber lobe, light at theta = {:.3} rad: beta_m {}, beta_n {}, alpha {} deg, eta {}",
             args.theta, f.beta_m, f.beta_n, f.alpha, f.eta
@@ -92,6 +101,5 @@ fn chart(image: &LobeImage, args: &LobeArgs) -> Result<image::RgbImage> {
             "d'Eon 2014 fiber lobe, light at theta = {:.3} rad: beta {}, alpha {} deg, eta {}",
             args.theta, f.beta_m, f.alpha, f.eta
         ),
-    };
-    HeatMap::lat_long(&title, "luminance, h-averaged f cos (1/sr)", image.width, image.height, &values).draw()
+    }
 }

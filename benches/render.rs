@@ -16,7 +16,7 @@ use common::bpy_python;
 use dualhair::camera::Camera;
 use dualhair::fibers::Fibers;
 use dualhair::integrator::{CameraSample, Integrator};
-use dualhair::render::render;
+use dualhair::render::render_all;
 use dualhair::render_cmd::{DualInputs, render_prepared};
 use dualhair::sampler::Sampler;
 use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, OneOrRgb, SceneFile, ShadowMode, SunSpec};
@@ -198,7 +198,7 @@ fn main() {
         let scene = file.build().unwrap();
         let samples = scene.camera.width * scene.camera.height * spp as usize;
         let start = Instant::now();
-        render(&scene.camera, &CameraRaysAlone(&scene.fibers), spp, scene.render.seed, false, false);
+        render_all(&scene.camera, &CameraRaysAlone(&scene.fibers), spp, scene.render.seed, false);
         let alone = samples as f64 / start.elapsed().as_secs_f64() / 1e6;
         // Cycles at 4x the spp: its per-sample time is the difference of two renders.
         file.render.integrator = IntegratorKind::Path;

@@ -18,15 +18,17 @@
 use crate::cache::{Cache, Fnv};
 use crate::compare::{hair_pixels, mean_variance, mse, rectangle};
 use crate::film::Film;
+use crate::interrupt::{self, Interrupted};
 use crate::output::write_atomically;
 use crate::plot::register_fonts;
-use crate::render_cmd::{DualInputs, RenderArgs, render_prepared, scene_file};
+use crate::render_cmd::{DualInputs, Part, RenderArgs, render_prepared, scene_file};
 use crate::scene::{IntegratorKind, MAX_LIGHT_SAMPLES, Sampling, Scene, SceneFile};
 use anyhow::{Context, Result, anyhow, bail, ensure};
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -35,7 +37,7 @@ use std::time::Instant;
 
 /// Renders a scene with several methods at doubling spp and several seeds, and measures error
 /// against a ground truth (MSE) and change per doubling (relative variance), over hair pixels.
-#[derive(clap::Args, Debug)]
+#[derive(clap::Args, Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ConvergeArgs {
     /// Scene file (.json) or hair file (.hair); default: scenes/default.json.
     pub scene: Option<PathBuf>,
@@ -88,14 +90,26 @@ pub struct ConvergeArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Render only part K of N (K = 1..N) of the renders (the truth among them), e.g. one task
+    /// of a Slurm array, and skip the measures; `dualhair merge` gathers the parts' folders and
+    /// measures them as one run. Parts may also share one folder: then rerunning without --part
+    /// measures.
+    #[arg(long, value_name = "K/N")]
+    #[serde(skip)]
+    pub part: Option<Part>,
     /// Hide the progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Measure finished renders only; a missing one is an error (what `merge` runs).
+    #[arg(skip)]
+    #[serde(skip)]
+    pub measure_only: bool,
 }
 
 /// An integrator with a direction sampler, written INTEGRATOR-SAMPLING, and for `dual` perhaps
 /// its light samples per camera hit, INTEGRATOR-SAMPLING-K (else the scene's).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(into = "String", try_from = "String")]
 pub struct Method {
     pub integrator: IntegratorKind,
     pub sampling: Sampling,
@@ -131,6 +145,20 @@ impl std::str::FromStr for Method {
             return Err(format!("`{s}`: light sampling alone is for dual only"));
         }
         Ok(method)
+    }
+}
+
+impl From<Method> for String {
+    fn from(m: Method) -> String {
+        m.to_string()
+    }
+}
+
+impl TryFrom<String> for Method {
+    type Error = String;
+
+    fn try_from(s: String) -> Result<Method, String> {
+        s.parse()
     }
 }
 
@@ -198,13 +226,52 @@ struct Prepared<'a> {
     dual: Option<DualInputs>,
 }
 
-/// Renders a job (unless finished) and returns its time in seconds and whether it was reused.
-/// Only rendering is timed: building the scene and loading the tables and grid are not.
-fn run_job(job: &Job, prepared: &mut Prepared, aovs: bool) -> Result<(f64, bool)> {
-    let fingerprint = &prepared.fingerprint;
-    if let Some(seconds) = finished(job, fingerprint) {
-        return Ok((seconds, true));
+/// The jobs of part `part`: each job goes, largest first, to the part with the fewest samples so
+/// far (the lowest K on ties), so parts get about equal work whatever the order of the jobs.
+fn part_jobs<'a>(jobs: &[&'a Job], part: Part) -> Vec<&'a Job> {
+    let mut order: Vec<usize> = (0..jobs.len()).collect();
+    order.sort_by_key(|&i| std::cmp::Reverse(jobs[i].spp));
+    let mut load = vec![0u64; part.n as usize];
+    let mut mine = Vec::new();
+    for i in order {
+        let k = (0..load.len()).min_by_key(|&k| load[k]).expect("at least one part");
+        load[k] += jobs[i].spp as u64;
+        if k + 1 == part.k as usize {
+            mine.push(jobs[i]);
+        }
     }
+    mine
+}
+
+/// Renders a job unless it is finished (then its recorded time is reused) and returns its time
+/// in seconds; `done` is (renders before this one, all renders) for the message on an interrupt.
+fn render_job(
+    job: &Job,
+    prepared: &mut Prepared,
+    aovs: bool,
+    pool: &rayon::ThreadPool,
+    done: (usize, usize),
+    dir: &Path,
+) -> Result<f64> {
+    if let Some(seconds) = finished(job, &prepared.fingerprint) {
+        return Ok(seconds);
+    }
+    match pool.install(|| run_job(job, prepared, aovs)) {
+        Err(e) if e.downcast_ref::<Interrupted>().is_some() => Err(Interrupted(format!(
+            "interrupted: {} of {} renders finished and kept in {}; the same command continues from them",
+            done.0,
+            done.1,
+            dir.display()
+        ))
+        .into()),
+        result => result,
+    }
+}
+
+/// Renders a job and returns its time in seconds. Only rendering is timed: building the scene
+/// and loading the tables and grid are not.
+fn run_job(job: &Job, prepared: &mut Prepared, aovs: bool) -> Result<f64> {
+    let fingerprint = prepared.fingerprint.clone();
     prepared.scene.dual.light_samples = job.method.light_samples.or(prepared.light_samples);
     let r = &mut prepared.scene.render;
     r.integrator = job.method.integrator;
@@ -226,7 +293,7 @@ fn run_job(job: &Job, prepared: &mut Prepared, aovs: bool) -> Result<(f64, bool)
     let meta = json!({"scene": fingerprint, "method": job.method.to_string(), "spp": job.spp, "seed": job.seed,
                       "seconds": seconds});
     write_atomically(&job.sidecar(), |tmp| Ok(std::fs::write(tmp, serde_json::to_vec_pretty(&meta)?)?))?;
-    Ok((seconds, false))
+    Ok(seconds)
 }
 
 pub fn run(args: &ConvergeArgs) -> Result<()> {
@@ -236,8 +303,13 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
     if let Some(r) = &args.rect {
         ensure!(r.len() == 4 && r[0] < r[2] && r[1] < r[3], "--rect takes X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1");
     }
+    // The scene's absolute path, so that a run's renders are recognized (their fingerprint names
+    // the scene's files) whatever folder a part or a merge runs in.
+    let scene_path = args.scene.clone().unwrap_or_else(|| PathBuf::from("scenes/default.json"));
+    let scene_path = std::fs::canonicalize(&scene_path)
+        .with_context(|| format!("{}: cannot find the scene", scene_path.display()))?;
     let render_args = RenderArgs {
-        scene: args.scene.clone(),
+        scene: Some(scene_path),
         width: args.width,
         height: args.height,
         d_f: args.d_f,
@@ -299,12 +371,49 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
         .expect("static progress template")
         .progress_chars("=> "),
     );
+    let all: Vec<&Job> = std::iter::once(&truth).chain(&jobs).collect();
+    if let Some(part) = args.part {
+        let mine = part_jobs(&all, part);
+        bar.set_length(mine.iter().map(|j| j.spp as u64).sum());
+        interrupt::install();
+        for (i, job) in mine.iter().enumerate() {
+            bar.set_message(format!("{} {} spp seed {} ({}/{})", job.method, job.spp, job.seed, i + 1, mine.len()));
+            render_job(job, &mut prepared, std::ptr::eq(*job, &truth), &pool, (i, mine.len()), &args.output)?;
+            bar.inc(job.spp as u64);
+        }
+        bar.finish_and_clear();
+        let record = json!({"part": [part.k, part.n], "args": args});
+        let path = args.output.join(format!("part-{}-of-{}.json", part.k, part.n));
+        write_atomically(&path, |tmp| Ok(std::fs::write(tmp, serde_json::to_vec_pretty(&record)?)?))?;
+        println!(
+            "part {}/{}: {} of the {} renders done in {}; when every part is done, `dualhair merge` their folders \
+             (or rerun without --part if the parts share this folder)",
+            part.k,
+            part.n,
+            mine.len(),
+            all.len(),
+            args.output.display()
+        );
+        return Ok(());
+    }
+    if !args.measure_only {
+        interrupt::install();
+    }
     let mut reused = 0;
     let mut seconds = Vec::new();
-    for (i, job) in std::iter::once(&truth).chain(&jobs).enumerate() {
-        bar.set_message(format!("{} {} spp seed {} ({}/{})", job.method, job.spp, job.seed, i + 1, jobs.len() + 1));
-        let (s, was_reused) = pool.install(|| run_job(job, &mut prepared, i == 0))?;
-        reused += was_reused as usize;
+    for (i, job) in all.iter().enumerate() {
+        bar.set_message(format!("{} {} spp seed {} ({}/{})", job.method, job.spp, job.seed, i + 1, all.len()));
+        let s = match finished(job, &prepared.fingerprint) {
+            Some(s) => {
+                reused += 1;
+                s
+            }
+            None if args.measure_only => bail!(
+                "{}: this render is missing or was made from another scene or settings: did every part finish?",
+                job.path.display()
+            ),
+            None => render_job(job, &mut prepared, i == 0, &pool, (i, all.len()), &args.output)?,
+        };
         seconds.push(s);
         bar.inc(job.spp as u64);
     }
@@ -358,6 +467,72 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
         pixels.len(),
         args.output.display()
     );
+    Ok(())
+}
+
+/// `dualhair merge` of the folders of `converge --part K/N` runs: checks that they are the parts
+/// 1..N of one run, gathers their renders in `out` and measures them as `converge` would.
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
+    let mut run: Option<(u32, ConvergeArgs)> = None;
+    let mut seen = BTreeMap::new();
+    for dir in dirs {
+        let records: Vec<PathBuf> = std::fs::read_dir(dir)
+            .with_context(|| format!("{}: cannot read the folder", dir.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| {
+                p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("part-") && n.ends_with(".json"))
+            })
+            .collect();
+        ensure!(!records.is_empty(), "{}: no part-K-of-N.json: not a folder of `converge --part`", dir.display());
+        for record in records {
+            let text = std::fs::read(&record).with_context(|| format!("{}: cannot read", record.display()))?;
+            let (part, mut args): ([u32; 2], ConvergeArgs) = serde_json::from_slice::<serde_json::Value>(&text)
+                .ok()
+                .and_then(|v| {
+                    Some((
+                        serde_json::from_value(v["part"].clone()).ok()?,
+                        serde_json::from_value(v["args"].clone()).ok()?,
+                    ))
+                })
+                .ok_or_else(|| anyhow!("{}: not a part record of `converge --part`", record.display()))?;
+            // Settings that do not change the renders may differ between parts.
+            (args.output, args.threads, args.quiet) = (out.to_path_buf(), None, true);
+            match &run {
+                None => run = Some((part[1], args)),
+                Some((n, first)) => ensure!(
+                    *n == part[1] && *first == args,
+                    "{}: a part of another run (its scene, methods, spp, seeds or part count differ)",
+                    record.display()
+                ),
+            }
+            seen.entry(part[0]).or_insert(dir.clone());
+        }
+        if std::fs::canonicalize(dir).ok() != std::fs::canonicalize(out).ok() {
+            copy_renders(dir, out)?;
+        }
+    }
+    let (n, mut args) = run.expect("clap requires a part");
+    let missing: Vec<String> = (1..=n).filter(|k| !seen.contains_key(k)).map(|k| format!("{k}/{n}")).collect();
+    ensure!(missing.is_empty(), "parts {} are missing", missing.join(", "));
+    args.measure_only = true;
+    self::run(&args)
+}
+
+/// Copies a converge folder's renders and truth (images and their records) into `out`.
+fn copy_renders(dir: &Path, out: &Path) -> Result<()> {
+    for sub in ["", "renders"] {
+        let (from, to) = (dir.join(sub), out.join(sub));
+        std::fs::create_dir_all(&to).with_context(|| format!("{}: cannot create the folder", to.display()))?;
+        let Ok(entries) = std::fs::read_dir(&from) else { continue };
+        for path in entries.filter_map(|e| e.ok().map(|e| e.path())) {
+            let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+            let wanted = if sub.is_empty() { name.starts_with("truth-") } else { path.is_file() };
+            if wanted {
+                std::fs::copy(&path, to.join(name))
+                    .with_context(|| format!("{}: cannot copy into {}", path.display(), to.display()))?;
+            }
+        }
+    }
     Ok(())
 }
 

@@ -3,10 +3,34 @@
 
 use crate::integrator::{Term, Terms};
 use crate::output::{write_atomically, write_png};
+use crate::render::Sums;
 use anyhow::{Context, Result, anyhow, ensure};
 use exr::prelude::*;
 use precompute::spectrum::Rgb;
 use std::path::Path;
+
+/// The first layer of an EXR file, with every channel and attribute.
+pub type ExrLayer = Layer<AnyChannels<FlatSamples>>;
+
+/// Reads the first valid layer of an EXR file.
+pub fn read_exr_layer(path: &Path) -> Result<ExrLayer> {
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .with_context(|| format!("{}: cannot read the EXR image", path.display()))?;
+    Ok(image.layer_data)
+}
+
+/// Channels and header attributes (name, value) a writer adds to a film's own.
+#[derive(Default)]
+pub struct ExrExtras {
+    pub channels: Vec<AnyChannel<FlatSamples>>,
+    pub attributes: Vec<(&'static str, AttributeValue)>,
+}
 
 /// A rendered image: per pixel the mean radiance, the hair coverage (alpha) and the variance of
 /// the mean (per channel), from `spp` samples per pixel. Rows top to bottom.
@@ -22,45 +46,39 @@ pub struct Film {
     pub terms: Vec<Terms>,
 }
 
-/// Running sums of one pixel's samples.
-#[derive(Clone, Copy, Default)]
-pub struct PixelSums {
-    pub sum: Rgb,
-    pub sum_sq: Rgb,
-    pub hits: u32,
-}
-
-impl PixelSums {
-    pub fn add(&mut self, l: Rgb, hit: bool) {
-        self.sum += l;
-        self.sum_sq += l * l;
-        self.hits += hit as u32;
-    }
-}
-
 impl Film {
-    /// The film from each pixel's sums, and its sums per term (empty when not collected).
-    pub fn from_sums(width: usize, height: usize, spp: u32, sums: &[PixelSums], term_sums: &[Terms]) -> Film {
-        let n = spp as f64;
-        let mean: Vec<Rgb> = sums.iter().map(|s| s.sum / n).collect();
+    /// The film of some sums: per pixel the mean, its variance and the coverage.
+    pub fn from_sums(sums: &Sums) -> Film {
+        let spp = sums.spp();
+        let n = spp.max(1) as f64;
+        let mean: Vec<Rgb> = sums.pixels.iter().map(|s| s.sum.value() / n).collect();
         let variance = sums
+            .pixels
             .iter()
             .zip(&mean)
-            .map(
-                |(s, m)| {
-                    if spp > 1 { ((s.sum_sq - *m * s.sum) / (n - 1.0) / n).map(|v| v.max(0.0)) } else { Rgb::ZERO }
-                },
-            )
+            .map(|(s, m)| {
+                if spp > 1 {
+                    ((s.sum_sq.value() - *m * s.sum.value()) / (n - 1.0) / n).map(|v| v.max(0.0))
+                } else {
+                    Rgb::ZERO
+                }
+            })
             .collect();
-        let alpha = sums.iter().map(|s| s.hits as f64 / n).collect();
-        let terms = term_sums.iter().map(|s| s.map(|t| t / n)).collect();
-        Film { width, height, spp, mean, alpha, variance, terms }
+        let alpha = sums.pixels.iter().map(|s| s.hits as f64 / n).collect();
+        let terms = sums.terms.iter().map(|t| t.map(|t| t.value() / n)).collect();
+        Film { width: sums.width, height: sums.height, spp, mean, alpha, variance, terms }
     }
 
     /// Writes R, G, B, A (coverage) as 32-bit float, plus `variance.R/G/B` (variance of each
     /// pixel's mean), `spp`, and the radiance per term when collected (`single.R`, ...,
-    /// `multiback.B`; see [`Term`]) when `aovs` is set.
+    /// `multiback.B`; see [`Term`]) when `aovs` is set. The header's `spp` attribute holds the
+    /// sample count.
     pub fn write_exr(&self, path: &Path, aovs: bool) -> Result<()> {
+        self.write_exr_with(path, aovs, ExrExtras::default())
+    }
+
+    /// [`Film::write_exr`] with more channels and header attributes.
+    pub fn write_exr_with(&self, path: &Path, aovs: bool, extras: ExrExtras) -> Result<()> {
         let f32s = |f: &dyn Fn(usize) -> f64| FlatSamples::F32((0..self.mean.len()).map(|i| f(i) as f32).collect());
         let mut channels = vec![
             AnyChannel::new("R", f32s(&|i| self.mean[i].0[0])),
@@ -80,9 +98,15 @@ impl Film {
                 }
             }
         }
+        channels.extend(extras.channels);
+        let mut attributes = LayerAttributes::named("dualhair");
+        let spp = AttributeValue::I32(self.spp.min(i32::MAX as u32) as i32);
+        attributes
+            .other
+            .extend(std::iter::once(("spp", spp)).chain(extras.attributes).map(|(k, v)| (Text::from(k), v)));
         let layer = Layer::new(
             (self.width, self.height),
-            LayerAttributes::named("dualhair"),
+            attributes,
             Encoding::SMALL_LOSSLESS,
             AnyChannels::sort(channels.into()),
         );
@@ -90,17 +114,13 @@ impl Film {
     }
 
     /// Reads an EXR written by [`Film::write_exr`] (R, G, B and A; the variance channels and
-    /// `spp` when present, else 0), checking that every channel is there and finite.
+    /// the spp (header, else `spp` channel) when present, else 0), checking that every channel is there and finite.
     pub fn read_exr(path: &Path) -> Result<Film> {
-        let image = read()
-            .no_deep_data()
-            .largest_resolution_level()
-            .all_channels()
-            .first_valid_layer()
-            .all_attributes()
-            .from_file(path)
-            .with_context(|| format!("{}: cannot read the EXR image", path.display()))?;
-        let layer = &image.layer_data;
+        Film::from_layer(path, &read_exr_layer(path)?)
+    }
+
+    /// The film in a layer read from `path` (see [`Film::read_exr`]).
+    pub fn from_layer(path: &Path, layer: &ExrLayer) -> Result<Film> {
         let (width, height) = (layer.size.width(), layer.size.height());
         let channel = |name: &str| -> Result<Option<Vec<f64>>> {
             let Some(c) = layer.channel_data.list.iter().find(|c| c.name.to_string() == name) else {
@@ -117,7 +137,10 @@ impl Film {
         let or_zero = |name: &str| Ok::<_, anyhow::Error>(channel(name)?.unwrap_or_else(|| vec![0.0; n]));
         let (r, g, b, a) = (need("R")?, need("G")?, need("B")?, need("A")?);
         let (vr, vg, vb) = (or_zero("variance.R")?, or_zero("variance.G")?, or_zero("variance.B")?);
-        let spp = channel("spp")?.and_then(|s| s.first().copied()).unwrap_or(0.0) as u32;
+        let spp = match layer.attributes.other.get(&Text::from("spp")) {
+            Some(AttributeValue::I32(n)) => (*n).max(0) as u32,
+            _ => channel("spp")?.and_then(|s| s.first().copied()).unwrap_or(0.0) as u32,
+        };
         let collected = channel("single.R")?.is_some();
         let mut terms = vec![Terms::default(); if collected { n } else { 0 }];
         for term in Term::ALL.iter().copied().filter(|_| collected) {

@@ -3,7 +3,9 @@ use dualhair::calibrate_cmd::{self, CalibrateArgs};
 use dualhair::compare_cmd::{self, CompareArgs};
 use dualhair::converge_cmd::{self, ConvergeArgs};
 use dualhair::fibersim_cmd::{self, FibersimArgs};
+use dualhair::interrupt::{EXIT_STATUS, Interrupted};
 use dualhair::lobe_cmd::{self, LobeArgs};
+use dualhair::merge_cmd::{self, MergeArgs};
 use dualhair::precompute_cmd::{self, PrecomputeCommand};
 use dualhair::render_cmd::{self, RenderArgs};
 use dualhair::resolve_cmd::{self, ResolveArgs};
@@ -34,6 +36,9 @@ enum Command {
     Converge(ConvergeArgs),
     /// Measure where every fiber model and sampler fails over seed 001's parameter grid.
     Stability(StabilityArgs),
+    /// Add the parts of a split render (`render --part K/N`) into one image, or gather the folders
+    /// of a split `converge` run.
+    Merge(MergeArgs),
     /// Compare an image with a reference over the hair: mean ratio and relative RMSE.
     Compare(CompareArgs),
     /// Fit dual's d_f and d_b to a path-traced reference of a scene.
@@ -52,12 +57,17 @@ fn main() -> std::process::ExitCode {
         Command::Fibersim(args) => fibersim_cmd::run(args),
         Command::Converge(args) => converge_cmd::run(args),
         Command::Stability(args) => stability_cmd::run(args),
+        Command::Merge(args) => merge_cmd::run(args),
         Command::Compare(args) => compare_cmd::run(args),
         Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::Resolve(args) => resolve_cmd::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) if e.downcast_ref::<Interrupted>().is_some() => {
+            eprintln!("{e:#}");
+            std::process::ExitCode::from(EXIT_STATUS)
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
             std::process::ExitCode::FAILURE

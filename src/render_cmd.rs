@@ -1,16 +1,18 @@
 //! `dualhair render`: renders a scene file to EXR and PNG.
 
-use crate::cache::Cache;
+use crate::cache::{Cache, Fnv};
 use crate::dual::{AUTO_SINGLE_BELOW, DualModel, DualScattering, Shadows, predicted_multiple_share};
 use crate::film::Film;
 use crate::integrator::PathTracer;
+use crate::interrupt::{self, Interrupted};
 use crate::output::ImageFormat;
-use crate::render::render;
+use crate::partial::{self, RenderId};
+use crate::render::{Sums, render};
 use crate::scene::{IntegratorKind, Sampling, Scene, SceneFile, ShadowMode};
 use crate::transmittance::ForwardLookup;
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result, anyhow, bail, ensure};
 use precompute::density::{DensityGrid, read_vdb};
-use precompute::fiber::{Fiber, FiberModel, ModelKind, UniformSampled};
+use precompute::fiber::{Fiber, ModelKind, UniformSampled};
 use precompute::tables::Tables;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -73,9 +75,49 @@ pub struct RenderArgs {
     /// into the terms of dual scattering (single, forward, back, multiback: .R/.G/.B) to the EXR.
     #[arg(long)]
     pub aovs: bool,
+    /// Render only part K of N (K = 1..N) of the samples, e.g. one task of a Slurm array: samples
+    /// (K-1)*spp/N to K*spp/N of every pixel, written as a partial render (EXR only) for
+    /// `dualhair merge`, which adds the parts into the image one render would make, bit for bit.
+    #[arg(long, value_name = "K/N")]
+    pub part: Option<Part>,
+    /// Continue the render in the output file (an interrupted one, a part, or one written with
+    /// --sums) up to --spp; the result is bit-identical to rendering it in one go. Starts afresh
+    /// when the output file does not exist yet.
+    #[arg(long)]
+    pub resume: bool,
+    /// Also store the exact per-pixel sums in the EXR (`exact.*` channels), so that `--resume` can
+    /// add samples to it later. Parts and interrupted renders always store them.
+    #[arg(long)]
+    pub sums: bool,
     /// Hide the progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+/// Part K of N of a render's samples (K counted from 1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Part {
+    pub k: u32,
+    pub n: u32,
+}
+
+impl std::str::FromStr for Part {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Part, String> {
+        let bad = || format!("`{s}` is not K/N with 1 <= K <= N");
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let part = Part { k: k.trim().parse().map_err(|_| bad())?, n: n.trim().parse().map_err(|_| bad())? };
+        (1..=part.n).contains(&part.k).then_some(part).ok_or_else(bad)
+    }
+}
+
+impl Part {
+    /// This part's share of `0..len`: contiguous, the shares of 1/N to N/N tile it in order.
+    pub fn share(self, len: u32) -> std::ops::Range<u32> {
+        let at = |k: u32| (len as u64 * k as u64 / self.n as u64) as u32;
+        at(self.k - 1)..at(self.k)
+    }
 }
 
 /// The EXR and PNG paths for an output argument.
@@ -170,11 +212,28 @@ pub fn render_scene(scene: &Scene, cache: &Cache, progress: bool) -> Result<Film
 }
 
 /// Renders a built scene with inputs already loaded (see [`DualInputs::load`]): rendering alone,
-/// what comparisons time.
+/// what comparisons time. An interrupt is an [`Interrupted`] error.
 pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool) -> Result<Film> {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let mut sums = Sums::empty(w, h, 0, scene.render.terms);
+    if !render_into(scene, dual, &mut sums, scene.render.spp, progress)? {
+        return Err(Interrupted("interrupted: the render was dropped".into()).into());
+    }
+    Ok(Film::from_sums(&sums))
+}
+
+/// Renders the scene's samples `sums.samples.end..end` into `sums` (see [`render`]); returns
+/// whether it got to `end` rather than being interrupted.
+pub fn render_into(
+    scene: &Scene,
+    dual: Option<&DualInputs>,
+    sums: &mut Sums,
+    end: u32,
+    progress: bool,
+) -> Result<bool> {
     let sampling = scene.render.sampling();
     let fiber = Fiber::new(&scene.fiber, sampling.fiber_sampler())?;
-    let (spp, seed) = (scene.render.spp, scene.render.seed);
+    let seed = scene.render.seed;
     if let Some(inputs) = dual {
         let d = &scene.dual;
         let dual = DualScattering {
@@ -193,7 +252,7 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
             },
             light_samples: d.light_samples(&scene.lights),
         };
-        return Ok(render(&scene.camera, &dual, spp, seed, progress, scene.render.terms));
+        return Ok(render(&scene.camera, &dual, seed, sums, end, progress));
     }
     let max_depth = match scene.render.integrator {
         IntegratorKind::Single => 1,
@@ -201,49 +260,159 @@ pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: bool)
         IntegratorKind::Dual => bail!("the dual integrator needs its tables and density grid"),
         IntegratorKind::Auto => bail!("`auto` must be resolved to an integrator first (resolve_auto)"),
     };
+    let (fibers, lights) = (&scene.fibers, &scene.lights);
     match sampling {
         Sampling::Importance | Sampling::Thesis | Sampling::BoxMuller | Sampling::Iterative => {
-            Ok(path_trace(scene, &fiber, max_depth, progress))
+            let tracer = PathTracer { fibers, fiber: &fiber, lights, max_depth };
+            Ok(render(&scene.camera, &tracer, seed, sums, end, progress))
         }
-        Sampling::Uniform => Ok(path_trace(scene, &UniformSampled(fiber), max_depth, progress)),
+        Sampling::Uniform => {
+            let tracer = PathTracer { fibers, fiber: &UniformSampled(fiber), lights, max_depth };
+            Ok(render(&scene.camera, &tracer, seed, sums, end, progress))
+        }
         Sampling::Light => bail!("light sampling alone needs the dual integrator"),
     }
 }
 
-/// Path traces a built scene with the fiber model `fiber`, at most `max_depth` fiber vertices.
-fn path_trace(scene: &Scene, fiber: &impl FiberModel, max_depth: u32, progress: bool) -> Film {
-    let tracer = PathTracer { fibers: &scene.fibers, fiber, lights: &scene.lights, max_depth };
-    render(&scene.camera, &tracer, scene.render.spp, scene.render.seed, progress, scene.render.terms)
+/// What identifies a render for `--resume` and `merge`: the scene file with every override
+/// applied, spp aside, and whether it collects the terms.
+fn render_id(file: &SceneFile, aovs: bool) -> RenderId {
+    let mut f = file.clone();
+    f.render.spp = 0;
+    let fingerprint = Fnv::new().bytes(format!("{f:?} aovs {aovs}").as_bytes()).0;
+    RenderId {
+        fingerprint: format!("{fingerprint:016x}"),
+        seed: file.render.seed,
+        spp: file.render.spp,
+        exposure: file.render.exposure,
+    }
+}
+
+/// The sums to continue from: the output file's, when resuming and it exists, checked against
+/// this render; else none yet.
+fn resume_from(
+    exr: &Path,
+    id: &RenderId,
+    samples: &std::ops::Range<u32>,
+    size: (usize, usize),
+    aovs: bool,
+) -> Result<Sums> {
+    let empty = Sums::empty(size.0, size.1, samples.start, aovs);
+    if !exr.exists() {
+        println!("{}: nothing to resume yet; rendering from the start", exr.display());
+        return Ok(empty);
+    }
+    let Some(partial) = partial::read(exr)? else {
+        bail!(
+            "{}: holds no sample sums to resume (only interrupted renders, parts and renders written with --sums do)",
+            exr.display()
+        );
+    };
+    let s = &partial.sums;
+    let what = |d: String| anyhow!("{}: cannot resume: {d}", exr.display());
+    if partial.id.fingerprint != id.fingerprint || partial.id.seed != id.seed {
+        return Err(what("it was rendered from another scene, seed or settings".into()));
+    }
+    if (s.width, s.height) != size || s.terms.is_empty() == aovs {
+        return Err(what(format!(
+            "it is {}x{}{}",
+            s.width,
+            s.height,
+            if aovs { " without the terms" } else { " with --aovs" }
+        )));
+    }
+    if s.samples.start != samples.start || s.samples.end > samples.end {
+        return Err(what(format!(
+            "it holds samples {}..{}, this render is samples {}..{}",
+            s.samples.start, s.samples.end, samples.start, samples.end
+        )));
+    }
+    Ok(partial.sums)
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
     let (exr, png) = output_paths(args.output.as_deref())?;
     let start = Instant::now();
-    let mut scene = scene_file(args)?.build()?;
+    let file = scene_file(args)?;
+    let id = render_id(&file, args.aovs);
+    let samples = match args.part {
+        Some(part) => {
+            let share = part.share(id.spp);
+            ensure!(!share.is_empty(), "--part {}/{}: more parts than the {} spp", part.k, part.n, id.spp);
+            share
+        }
+        None => 0..id.spp,
+    };
+    let size = (file.camera.width, file.camera.height);
+    let mut sums = if args.resume {
+        resume_from(&exr, &id, &samples, size, args.aovs)?
+    } else {
+        Sums::empty(size.0, size.1, samples.start, args.aovs)
+    };
+    interrupt::install();
+    let mut scene = file.build()?;
     scene.render.terms = args.aovs;
     let cache = Cache::default_location();
     if let Some(why) = resolve_auto(&mut scene, &cache, !args.quiet)? {
         println!("{why}");
     }
-    let setup = start.elapsed();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0))
         .build()
         .context("cannot start the worker threads")?;
-    let film = pool.install(|| render_scene(&scene, &cache, !args.quiet))?;
-    film.write_exr(&exr, args.aovs)?;
-    film.write_png(&png, scene.render.exposure)?;
+    let dual = pool.install(|| DualInputs::load(&scene, &cache, !args.quiet))?;
+    let setup = start.elapsed();
+    let resumed = sums.spp();
+    if !args.quiet {
+        eprintln!(
+            "rendering samples {}..{} of {} spp in passes (Ctrl-C writes the finished passes)",
+            sums.samples.end, samples.end, id.spp
+        );
+    }
+    let done = pool.install(|| render_into(&scene, dual.as_ref(), &mut sums, samples.end, !args.quiet))?;
+    let seconds = (start.elapsed() - setup).as_secs_f64();
+    if !done {
+        if sums.spp() == 0 {
+            return Err(Interrupted("interrupted before the first pass finished: nothing written".into()).into());
+        }
+        partial::write(&exr, &sums, &id, args.aovs)?;
+        Film::from_sums(&sums).write_png(&png, id.exposure)?;
+        return Err(Interrupted(format!(
+            "interrupted: wrote {} and {} with the {} finished spp (samples {}..{}) of {}; the same command with --resume continues it",
+            exr.display(),
+            png.display(),
+            sums.spp(),
+            sums.samples.start,
+            sums.samples.end,
+            samples.len()
+        ))
+        .into());
+    }
+    let film = Film::from_sums(&sums);
+    if args.part.is_some() || args.sums {
+        partial::write(&exr, &sums, &id, args.aovs)?;
+    } else {
+        film.write_exr(&exr, args.aovs)?;
+    }
+    let png_note = if args.part.is_some() {
+        String::new()
+    } else {
+        film.write_png(&png, id.exposure)?;
+        format!(" and {}", png.display())
+    };
+    let resumed = if resumed > 0 { format!(", {resumed} of them resumed") } else { String::new() };
     println!(
-        "wrote {} and {} ({}x{}, {} spp, {:?}): {} strands, setup {:.2} s, render {:.2} s",
+        "wrote {}{png_note} ({}x{}, {} spp{resumed}, samples {}..{} of {}, {:?}): {} strands, setup {:.2} s, render {seconds:.2} s",
         exr.display(),
-        png.display(),
         film.width,
         film.height,
         film.spp,
+        sums.samples.start,
+        sums.samples.end,
+        id.spp,
         scene.render.integrator,
         scene.strands.strand_count(),
         setup.as_secs_f64(),
-        (start.elapsed() - setup).as_secs_f64()
     );
     Ok(())
 }

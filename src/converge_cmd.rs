@@ -382,6 +382,8 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
             bar.inc(job.spp as u64);
         }
         bar.finish_and_clear();
+        // With the scene's absolute path, so a merge may run in any folder.
+        let args = ConvergeArgs { scene: render_args.scene.clone(), ..args.clone() };
         let record = json!({"part": [part.k, part.n], "args": args});
         let path = args.output.join(format!("part-{}-of-{}.json", part.k, part.n));
         write_atomically(&path, |tmp| Ok(std::fs::write(tmp, serde_json::to_vec_pretty(&record)?)?))?;

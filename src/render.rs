@@ -17,11 +17,25 @@ use rayon::prelude::*;
 use std::ops::Range;
 use std::time::Instant;
 
-/// Fixed-point scale of [`Exact`]: 2^60 units per unit of radiance. A sample is rounded to
+/// Fixed-point scale of [`Exact`]: 2^60 units per unit of radiance. A sample is truncated to
 /// 2^-60 (8.7e-19, far below f32's resolution of any stored value), and sums saturate at
 /// i128::MAX / 2^60 = 1.5e20, so a pixel may take 1e9 samples of radiance 1e5 before its sum of
 /// squares does.
 const SCALE: f64 = (1u64 << 60) as f64;
+
+/// `v` in units of 2^-60, truncated toward zero (deterministic like any rounding, and one
+/// instruction where the value fits in an i64, as all but huge radiances do; the f64-to-i128
+/// conversion is a library call).
+fn fixed(v: f64) -> i128 {
+    let x = v * SCALE;
+    if x.abs() < 9.2e18 {
+        x as i64 as i128
+    } else if x.is_nan() {
+        i128::MAX
+    } else {
+        x as i128 // saturates
+    }
+}
 
 /// A sum of RGB values in fixed point (see [`SCALE`]). A non-finite sample saturates (NaN counts
 /// as +inf) rather than vanishing, so a broken sample shows as a bright pixel, not lost light.
@@ -31,8 +45,7 @@ pub struct Exact(pub [i128; 3]);
 impl Exact {
     fn add_value(&mut self, v: Rgb) {
         for (s, v) in self.0.iter_mut().zip(v.0) {
-            let fixed = if v.is_nan() { i128::MAX } else { (v * SCALE).round() as i128 };
-            *s = s.saturating_add(fixed);
+            *s = s.saturating_add(fixed(v));
         }
     }
 

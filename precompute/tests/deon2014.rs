@@ -89,7 +89,9 @@ fn sphere_integrals<const N: usize>(
             }
             row
         })
-        .reduce(|| [0.0; N], |a, b| std::array::from_fn(|k| a[k] + b[k]))
+        .collect::<Vec<_>>()
+        .iter()
+        .fold([0.0; N], |a, b| std::array::from_fn(|k| a[k] + b[k])) // in order (see sphere_quadrature)
 }
 
 #[test]

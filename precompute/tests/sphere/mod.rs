@@ -16,10 +16,13 @@ use std::f64::consts::{FRAC_PI_2, PI};
 pub fn sphere_quadrature(g: impl Fn(DVec3) -> f64 + Sync, theta_panels: usize, phi_panels: usize) -> f64 {
     let thetas = composite(-FRAC_PI_2, FRAC_PI_2, theta_panels, 4);
     let phis = composite(-PI, PI, phi_panels, 4);
-    thetas
+    // Rows in parallel, summed in order: rayon's parallel sum adds in whatever order the threads
+    // finish, which changes the last bits from run to run.
+    let rows: Vec<f64> = thetas
         .par_iter()
         .map(|&(t, wt)| phis.iter().map(|&(p, wp)| g(direction(t, p)) * wp).sum::<f64>() * wt * t.cos())
-        .sum()
+        .collect();
+    rows.iter().sum()
 }
 
 /// Chi-square test of `model.sample` against `model.pdf` on an equal-area (sin theta, phi) grid.

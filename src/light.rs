@@ -178,27 +178,76 @@ impl Lights {
     }
 }
 
+/// The most a compressed map can expand: deflate (EXR's ZIP and PXR24) makes at most 1032 bytes
+/// of one, EXR's other compressions and Radiance's run-length encoding less. (Radiance's obsolete
+/// encoding, for scanlines under 8 or over 32767 pixels, can do more, but only on a near-constant
+/// map.)
+const MAX_EXPANSION: u128 = 1032;
+
+/// Refuses a map whose header says `width` x `height` pixels of `samples` bytes (uncompressed)
+/// when a file of `file_len` bytes cannot hold them even at [`MAX_EXPANSION`]: such a header is
+/// corrupt, and believing it would allocate gigabytes before the read fails.
+fn check_size(path: &Path, width: usize, height: usize, samples: u128, file_len: usize) -> Result<()> {
+    if samples > MAX_EXPANSION * file_len as u128 {
+        bail!(
+            "{}: the header says {width}x{height} pixels, more than a file of {file_len} bytes can hold: it is \
+             corrupt or truncated",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
 impl EnvMap {
     /// Loads a lat-long map from an .exr (first RGB(A) layer) or .hdr (Radiance) file.
     pub fn load(path: &Path, strength: f64, rotation_deg: f64) -> Result<EnvMap> {
+        let bytes =
+            std::fs::read(path).with_context(|| format!("{}: cannot read the environment map", path.display()))?;
+        EnvMap::from_bytes(&bytes, path, strength, rotation_deg)
+    }
+
+    /// [`EnvMap::load`] for a file already in memory: `bytes` are its contents, `path` gives the
+    /// format (by its extension) and is what errors name.
+    pub fn from_bytes(bytes: &[u8], path: &Path, strength: f64, rotation_deg: f64) -> Result<EnvMap> {
         let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
         let (width, height, texels) = match ext.as_deref() {
             Some("exr") => {
-                let image = exr::prelude::read_first_rgba_layer_from_file(
-                    path,
-                    |res, _| (res.width(), vec![Rgb::ZERO; res.width() * res.height()]),
-                    |(w, px), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                        px[pos.y() * *w + pos.x()] = Rgb([r as f64, g as f64, b as f64])
-                    },
-                )
+                use exr::prelude::{ReadChannels, ReadLayers};
                 // The exr crate's error already says its cause: as a context it would print twice.
-                .map_err(|e| anyhow!("{}: cannot read as an EXR environment map: {e}", path.display()))?;
+                let exr_error = |e| anyhow!("{}: cannot read as an EXR environment map: {e}", path.display());
+                let chunks = exr::block::read(std::io::Cursor::new(bytes), false).map_err(exr_error)?;
+                for header in chunks.headers().iter().filter(|h| !h.deep) {
+                    let (w, h) = (header.layer_size.x(), header.layer_size.y());
+                    let samples = header.channels.list.iter().map(|c| {
+                        let (sx, sy) = (c.sampling.x().max(1), c.sampling.y().max(1));
+                        (w / sx) as u128 * (h / sy) as u128 * c.sample_type.bytes_per_sample() as u128
+                    });
+                    check_size(path, w, h, samples.sum(), bytes.len())?;
+                }
+                let image = exr::prelude::read()
+                    .no_deep_data()
+                    .largest_resolution_level()
+                    .rgba_channels(
+                        |res, _| (res.width(), vec![Rgb::ZERO; res.width() * res.height()]),
+                        |(w, px), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                            px[pos.y() * *w + pos.x()] = Rgb([r as f64, g as f64, b as f64])
+                        },
+                    )
+                    .first_valid_layer()
+                    .all_attributes()
+                    .from_chunks(chunks)
+                    .map_err(exr_error)?;
                 let (w, px) = image.layer_data.channel_data.pixels;
                 (w, px.len() / w.max(1), px)
             }
             Some("hdr") => {
-                let img = image::open(path)
-                    .with_context(|| format!("{}: cannot read as a Radiance HDR environment map", path.display()))?
+                use image::ImageDecoder;
+                // As for EXR: the image crate's decoding errors print their cause themselves.
+                let hdr_error = |e| anyhow!("{}: cannot read as a Radiance HDR environment map: {e}", path.display());
+                let (w, h) = image::codecs::hdr::HdrDecoder::new(bytes).map_err(hdr_error)?.dimensions();
+                check_size(path, w as usize, h as usize, 4 * w as u128 * h as u128, bytes.len())?;
+                let img = image::load_from_memory_with_format(bytes, image::ImageFormat::Hdr)
+                    .map_err(hdr_error)?
                     .into_rgb32f();
                 let px = img.pixels().map(|p| Rgb(p.0.map(|c| c as f64))).collect();
                 (img.width() as usize, img.height() as usize, px)

@@ -360,8 +360,14 @@ impl SceneFile {
         }
         let text =
             std::fs::read_to_string(path).with_context(|| format!("{}: cannot read the scene file", path.display()))?;
+        SceneFile::parse(&text, path)
+    }
+
+    /// Parses the JSON text of the scene file at `path`, which errors name and relative file
+    /// names in the scene are resolved against (its directory).
+    pub fn parse(text: &str, path: &Path) -> Result<SceneFile> {
         let mut scene: SceneFile =
-            serde_json::from_str(&text).with_context(|| format!("{}: invalid scene", path.display()))?;
+            serde_json::from_str(text).with_context(|| format!("{}: invalid scene", path.display()))?;
         let dir = path.parent().unwrap_or(Path::new(""));
         scene.hair.file = scene.hair.file.map(|f| dir.join(f));
         if let Some(env) = &mut scene.lights.environment {

@@ -12,7 +12,7 @@ use glam::DVec3;
 use rustc_hash::FxHashMap;
 
 mod vdb;
-pub use vdb::{VdbError, read_vdb, write_vdb};
+pub use vdb::{VdbError, parse_vdb, read_vdb, write_vdb};
 
 /// Voxels along each edge of a brick.
 pub const BRICK: i32 = 8;

@@ -74,8 +74,9 @@ const MAX_INDEX: i32 = 1 << 24;
 /// Reasons a .vdb file cannot be loaded as a density grid; every message names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum VdbError {
-    #[error("cannot read {}: {source}", path.display())]
-    Io { path: PathBuf, source: io::Error },
+    // Not named `source`: the message says the cause, and as a source it would print twice.
+    #[error("cannot read {}: {error}", path.display())]
+    Io { path: PathBuf, error: io::Error },
     #[error("{} is not an OpenVDB file: it does not start with the VDB magic number 0x56444220", path.display())]
     NotVdb { path: PathBuf },
     #[error(
@@ -326,12 +327,17 @@ fn uuid(body: &[u8]) -> String {
 /// is spread over the up to 8 of our voxels around its center with tent weights, which keeps the
 /// total hair length and blurs by up to one voxel.
 pub fn read_vdb(path: &Path, name: &str) -> Result<DensityGrid, VdbError> {
-    let data = std::fs::read(path).map_err(|source| VdbError::Io { path: path.to_owned(), source })?;
-    let info = validate(&data, path, name)?;
+    let data = std::fs::read(path).map_err(|error| VdbError::Io { path: path.to_owned(), error })?;
+    parse_vdb(&data, path, name)
+}
+
+/// [`read_vdb`] for a file already in memory: `data` are its bytes, `path` is what errors name.
+pub fn parse_vdb(data: &[u8], path: &Path, name: &str) -> Result<DensityGrid, VdbError> {
+    let info = validate(data, path, name)?;
     let grid_error = |problem: String| VdbError::Grid { path: path.to_owned(), grid: name.to_owned(), problem };
     let reader_error = |message: String| VdbError::Reader { path: path.to_owned(), grid: name.to_owned(), message };
 
-    let voxels = read_with_vdb_rs(&data, &info.key).map_err(reader_error)?;
+    let voxels = read_with_vdb_rs(data, &info.key).map_err(reader_error)?;
     if voxels.len() as u64 != info.active_voxels {
         return Err(reader_error(format!(
             "it returned {} active voxels but the file has {}",

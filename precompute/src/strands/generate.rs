@@ -38,8 +38,10 @@ pub enum Generator {
 pub enum GenerateError {
     #[error("hair generator field `{field}` {problem} (got {value})")]
     Param { field: &'static str, problem: &'static str, value: f64 },
+    // Not `#[from]`, which would make it the source too: the message says it, and `{:#}` would
+    // print it twice.
     #[error("the hair generator's parameters give geometry that cannot be rendered: {0}")]
-    Geometry(#[from] StrandError),
+    Geometry(StrandError),
 }
 
 /// A flat swatch of parallel straight strands. Roots are uniform over a `width` (x) by `depth` (y)
@@ -235,7 +237,7 @@ impl Generator {
         };
         // Valid parameters can still round to coincident f32 points (a length tiny next to the
         // coordinates) or overflow f32 (huge extents).
-        strands.validate()?;
+        strands.validate().map_err(GenerateError::Geometry)?;
         Ok(strands)
     }
 }

@@ -27,8 +27,9 @@ const KNOWN_FLAGS: u32 = SEGMENTS | POINTS | THICKNESS | TRANSPARENCY | COLORS;
 /// A .hair file that cannot be loaded; the message says what is wrong in terms of the file.
 #[derive(Debug, thiserror::Error)]
 pub enum HairError {
-    #[error("cannot read {}: {source}", path.display())]
-    Io { path: PathBuf, source: io::Error },
+    // Not named `source`: the message says the cause, and as a source it would print twice.
+    #[error("cannot read {}: {error}", path.display())]
+    Io { path: PathBuf, error: io::Error },
     /// Any other error, for the file at `path` (what [`read_hair`] returns).
     #[error("{}: {error}", path.display())]
     InFile { path: PathBuf, error: Box<HairError> },
@@ -68,7 +69,7 @@ pub enum HairError {
 
 /// Reads a .hair file; every error names `path`.
 pub fn read_hair(path: &Path) -> Result<Strands, HairError> {
-    let bytes = std::fs::read(path).map_err(|source| HairError::Io { path: path.to_owned(), source })?;
+    let bytes = std::fs::read(path).map_err(|error| HairError::Io { path: path.to_owned(), error })?;
     parse_hair(&bytes).map_err(|error| HairError::InFile { path: path.to_owned(), error: Box::new(error) })
 }
 

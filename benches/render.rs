@@ -12,17 +12,14 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::bpy_python;
+use common::{CameraRaysAlone, bpy_python};
 use dualhair::camera::Camera;
 use dualhair::fibers::Fibers;
-use dualhair::integrator::{CameraSample, Integrator};
 use dualhair::render::render_all;
 use dualhair::render_cmd::{DualInputs, render_prepared};
-use dualhair::sampler::Sampler;
 use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, OneOrRgb, SceneFile, ShadowMode, SunSpec};
 use dualhair::transmittance::ForwardLookup;
-use glam::{DVec3, Vec3};
-use precompute::spectrum::Rgb;
+use glam::Vec3;
 use precompute::strands::{Generator, Scalp, read_hair};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -64,17 +61,6 @@ fn cycles_rate(python: &Path, file: &SceneFile, spp: u32) -> f64 {
     };
     let (one, many) = (seconds(1), seconds(spp));
     (file.camera.width * file.camera.height * (spp - 1) as usize) as f64 / (many - one) / 1e6
-}
-
-/// Camera rays and nothing else: the samples/s that no integrator with one camera ray per sample
-/// (as `dual`) can pass, whatever its shading costs.
-struct CameraRaysAlone<'a>(&'a Fibers);
-
-impl Integrator for CameraRaysAlone<'_> {
-    fn radiance(&self, origin: Vec3, dir: DVec3, _: &mut impl Sampler) -> CameraSample {
-        let hit = self.0.closest_hit(origin, dir.as_vec3(), f32::INFINITY);
-        CameraSample { radiance: Rgb::ZERO, hit_hair: hit.is_some(), terms: [Rgb::ZERO; 4] }
-    }
 }
 
 fn main() {

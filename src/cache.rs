@@ -18,6 +18,16 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+/// A spinner with `message` for work of unknown length (hidden unless `show`); clear it when done.
+pub(crate) fn spinner(show: bool, message: String) -> ProgressBar {
+    if !show {
+        return ProgressBar::hidden();
+    }
+    let spinner = ProgressBar::new_spinner().with_message(message);
+    spinner.enable_steady_tick(Duration::from_millis(120));
+    spinner
+}
+
 /// Bumped whenever the cached formats or the computations change meaning.
 const VERSION: u64 = 1;
 
@@ -71,12 +81,10 @@ impl Cache {
         if let Some(tables) = load_tables(&path, fiber, d_b) {
             return Ok(tables);
         }
-        let spinner = if progress { ProgressBar::new_spinner() } else { ProgressBar::hidden() };
-        spinner.set_message(format!(
-            "computing the dual-scattering tables once for this fiber (cached in {})",
-            path.display()
-        ));
-        spinner.enable_steady_tick(Duration::from_millis(120));
+        let spinner = spinner(
+            progress,
+            format!("computing the dual-scattering tables once for this fiber (cached in {})", path.display()),
+        );
         let mut tables = compute(&Fiber::exact(fiber)?, &settings, d_b);
         spinner.finish_and_clear();
         tables.fiber = Some(*fiber);

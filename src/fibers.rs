@@ -20,7 +20,7 @@ use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray, RayHit};
-use precompute::strands::Strands;
+use precompute::strands::{Segment, Strands};
 use std::time::Duration;
 
 /// A capsule in fiber units.
@@ -65,8 +65,6 @@ pub struct Fibers {
     capsules: Vec<Stored>,
     /// Slots of the previous and next capsules of the same strand (`NONE` at its ends), per slot.
     neighbours: Vec<[u32; 2]>,
-    /// Original segment index of each capsule.
-    ids: Vec<u32>,
     /// World units to fiber units.
     scale: f64,
 }
@@ -142,11 +140,11 @@ fn inside_capsule(p: DVec3, c: &Capsule) -> bool {
 impl Fibers {
     /// Builds the BVH; `strands` must be valid (see `Strands::validate`).
     pub fn new(strands: &Strands) -> Fibers {
-        let segments: Vec<_> = strands.segments().collect();
-        let mean_r = segments.iter().map(|s| s.radius as f64).sum::<f64>() / segments.len().max(1) as f64;
+        let count = strands.segment_count();
+        let mean_r = strands.segments().map(|s| s.radius as f64).sum::<f64>() / count.max(1) as f64;
         let scale = if mean_r > 0.0 { 1.0 / mean_r } else { 1.0 };
-        let aabbs: Vec<Aabb> = segments
-            .iter()
+        let aabbs: Vec<Aabb> = strands
+            .segments()
             .map(|s| {
                 let (a, b, r) = (s.a.as_dvec3() * scale, s.b.as_dvec3() * scale, s.radius as f64 * scale);
                 // Pad by the radius plus a rounding margin so the f32 boxes surely contain the capsule.
@@ -156,7 +154,12 @@ impl Fibers {
             .collect();
         let mut build_time = Duration::ZERO;
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, BvhBuildParams::slow_build(), &mut build_time);
-        let ids = bvh.primitive_indices.clone();
+        // The build's own memory is its peak (README, "Film-scale grooms"): the segments are
+        // gathered only after it, and the boxes let go.
+        drop(aabbs);
+        let segments: Vec<_> = strands.segments().collect();
+        // The BVH's primitive indices are each slot's segment index (in `Strands::segments` order).
+        let ids = &bvh.primitive_indices;
         let mut slots = vec![0; ids.len()];
         for (slot, &id) in ids.iter().enumerate() {
             slots[id as usize] = slot as u32;
@@ -177,7 +180,21 @@ impl Fibers {
                 [if i > 0 && joined(i - 1) { slots[i - 1] } else { NONE }, if joined(i) { slots[i + 1] } else { NONE }]
             })
             .collect();
-        Fibers { bvh, capsules, neighbours, ids, scale }
+        Fibers { bvh, capsules, neighbours, scale }
+    }
+
+    /// The original segment index of the capsule in leaf slot `slot`.
+    fn id(&self, slot: usize) -> u32 {
+        self.bvh.primitive_indices[slot]
+    }
+
+    /// Memory held, in bytes: the BVH's nodes and indices, the capsules and their neighbours.
+    pub fn bytes(&self) -> usize {
+        use std::mem::size_of_val;
+        size_of_val(&self.bvh.nodes[..])
+            + size_of_val(&self.bvh.primitive_indices[..])
+            + size_of_val(&self.capsules[..])
+            + size_of_val(&self.neighbours[..])
     }
 
     /// The capsule in leaf slot `slot`, in fiber units.
@@ -186,13 +203,10 @@ impl Fibers {
         Capsule { a: c.a.as_dvec3() * self.scale, b: c.b.as_dvec3() * self.scale, r: c.r as f64 * self.scale }
     }
 
-    /// The unit tangent a hit on each segment reports, indexed by segment.
-    pub fn tangents(&self) -> Vec<Vec3> {
-        let mut t = vec![Vec3::ZERO; self.capsules.len()];
-        for (slot, &id) in self.ids.iter().enumerate() {
-            t[id as usize] = Self::tangent(&self.capsule(slot));
-        }
-        t
+    /// The unit tangent a hit on segment `s` reports (computed as for the stored capsule).
+    pub fn tangent_of(&self, s: &Segment) -> Vec3 {
+        let (a, b) = (s.a.as_dvec3() * self.scale, s.b.as_dvec3() * self.scale);
+        Self::tangent(&Capsule { a, b, r: s.radius as f64 * self.scale })
     }
 
     fn tangent(c: &Capsule) -> Vec3 {
@@ -245,7 +259,7 @@ impl Fibers {
             tangent: Self::tangent(c),
             normal: normal.as_vec3(),
             radius: (c.r / self.scale) as f32,
-            segment: self.ids[hit.primitive_id as usize],
+            segment: self.id(hit.primitive_id as usize),
         })
     }
 
@@ -263,7 +277,7 @@ impl Fibers {
         let mut hits: Vec<(f64, u32)> = Vec::new();
         self.bvh.ray_traverse_anyhit(ray, |_, id| {
             if let Some(t) = self.enter(o, d, id, f32::INFINITY) {
-                hits.push((t, self.ids[id]));
+                hits.push((t, self.id(id)));
             }
         });
         if hits.len() < 2 {

@@ -1,6 +1,6 @@
 //! `dualhair render`: renders a scene file to EXR and PNG.
 
-use crate::cache::{Cache, Fnv};
+use crate::cache::{Cache, Fnv, spinner};
 use crate::dual::{AUTO_SINGLE_BELOW, DualModel, DualScattering, Shadows, predicted_multiple_share};
 use crate::film::Film;
 use crate::integrator::PathTracer;
@@ -350,7 +350,20 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         Sums::empty(size.0, size.1, samples.start, args.aovs)
     };
     interrupt::install();
+    // Seconds on a film-scale groom (README, "Film-scale grooms"), so it says what it is doing.
+    let building = spinner(!args.quiet, "loading the hair and building its BVH".into());
     let mut scene = file.build()?;
+    building.finish_and_clear();
+    if !args.quiet {
+        let s = &scene.strands;
+        eprintln!(
+            "loaded {} strands ({} points) and built the BVH over their {} segments in {:.1} s",
+            s.strand_count(),
+            s.points.len(),
+            s.segment_count(),
+            start.elapsed().as_secs_f64()
+        );
+    }
     scene.render.terms = args.aovs;
     let cache = Cache::default_location();
     if let Some(why) = resolve_auto(&mut scene, &cache, !args.quiet)? {

@@ -268,10 +268,15 @@ impl ForwardLookup {
         settings: &LookupSettings,
         progress: bool,
     ) -> ForwardLookup {
-        let all: Vec<_> = strands.segments().collect();
         let seen = seen_segments(strands, fibers, camera);
-        let segments: Vec<_> = seen.iter().map(|&i| all[i as usize]).collect();
-        let tangents = fibers.tangents();
+        // Only the segments in view, picked from the strands in one pass (`seen` is ascending).
+        let mut wanted = seen.iter().copied().peekable();
+        let segments: Vec<_> = strands
+            .segments()
+            .enumerate()
+            .filter(|&(i, _)| wanted.next_if_eq(&(i as u32)).is_some())
+            .map(|(_, s)| s)
+            .collect();
         let viewer = camera.position();
         let env = lights.environment.as_ref().map(|_| EnvLookup::new(settings));
         let bar = if progress { ProgressBar::new(segments.len() as u64) } else { ProgressBar::hidden() };
@@ -293,7 +298,7 @@ impl ForwardLookup {
             .map(|(row, s)| {
                 let i = seen[row] as usize;
                 let mut rng = Pcg64Mcg::seed_from_u64(0x5eed_0000 ^ i as u64);
-                let tangent = tangents[i].as_dvec3();
+                let tangent = fibers.tangent_of(s).as_dvec3();
                 let points = shading_points(fibers, s, i as u32, tangent, viewer, &mut rng);
                 // Sample k takes a point by a stride coprime to their count, to spread them.
                 let point = |k: usize| points[(k * 7919) % SHADING_POINTS].0;
@@ -322,7 +327,7 @@ impl ForwardLookup {
                 });
                 let (mut words, mut counts) = (Vec::new(), Vec::new());
                 if let Some(env) = &env {
-                    let frame = Frame::new(tangents[i]);
+                    let frame = Frame::new(fibers.tangent_of(s));
                     words = vec![0u64; env.words];
                     counts = (0..env.map.len())
                         .map(|k| {
@@ -350,7 +355,7 @@ impl ForwardLookup {
             counts: rows.iter().flat_map(|r| r.2.iter().copied()).collect(),
             ..e
         });
-        ForwardLookup::new(all.len(), seen, sun, env)
+        ForwardLookup::new(strands.segment_count(), seen, sun, env)
     }
 
     fn new(segments: usize, seen: Vec<u32>, sun: Option<SunLookup>, env: Option<EnvLookup>) -> ForwardLookup {

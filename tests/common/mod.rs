@@ -3,9 +3,14 @@
 #![allow(dead_code)]
 
 use dualhair::cache::Cache;
+use dualhair::fibers::Fibers;
 use dualhair::film::Film;
+use dualhair::integrator::{CameraSample, Integrator};
 use dualhair::render_cmd::render_scene;
+use dualhair::sampler::Sampler;
 use dualhair::scene::SceneFile;
+use glam::{DVec3, Vec3};
+use precompute::spectrum::Rgb;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -65,4 +70,15 @@ pub fn assert_each_fails_naming(cases: &[(Vec<&str>, &str)], dir: &Path) {
         assert!(err.contains(expect), "{args:?}: {err}");
     }
     assert_eq!(std::fs::read_dir(dir).unwrap().count(), 0, "a failed run left a file behind");
+}
+
+/// Camera rays and nothing else: the samples/s that no integrator with one camera ray per sample
+/// (as `dual`) can pass, whatever its shading costs (the benchmarks' ceiling).
+pub struct CameraRaysAlone<'a>(pub &'a Fibers);
+
+impl Integrator for CameraRaysAlone<'_> {
+    fn radiance(&self, origin: Vec3, dir: DVec3, _: &mut impl Sampler) -> CameraSample {
+        let hit = self.0.closest_hit(origin, dir.as_vec3(), f32::INFINITY);
+        CameraSample { radiance: Rgb::ZERO, hit_hair: hit.is_some(), terms: [Rgb::ZERO; 4] }
+    }
 }

@@ -17,6 +17,7 @@ mod common;
 
 use common::CameraRaysAlone;
 use dualhair::film::Film;
+use dualhair::meshes::Meshes;
 use dualhair::render::render_all;
 use dualhair::render_cmd::{DualInputs, render_prepared};
 use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, Scene, SceneFile};
@@ -106,6 +107,7 @@ fn main() {
         lights: file.lights().unwrap(),
         strands,
         fibers,
+        meshes: Meshes::default(),
         fiber: file.fiber,
         render: file.render.clone(),
         dual: file.dual.clone(),
@@ -121,7 +123,7 @@ fn main() {
         |l: &ForwardLookup| format!("{} of {} segments in view, {}", l.coverage().0, l.coverage().1, mb(l.bytes())),
         || {
             let s = &scene;
-            ForwardLookup::build(&s.strands, &s.fibers, &s.camera, &grid, &s.lights, &s.dual.lookup, true)
+            ForwardLookup::build(&s.strands, s.world(), &s.camera, &grid, &s.lights, &s.dual.lookup, true)
         },
     );
     let inputs = DualInputs { tables, grid, lookup: Some(lookup) };

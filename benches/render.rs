@@ -173,7 +173,7 @@ fn main() {
                 let start = Instant::now();
                 let s = &scene;
                 let lookup =
-                    ForwardLookup::build(&s.strands, &s.fibers, &s.camera, grid, &s.lights, &file.dual.lookup, false);
+                    ForwardLookup::build(&s.strands, s.world(), &s.camera, grid, &s.lights, &file.dual.lookup, false);
                 build = (start.elapsed().as_secs_f64(), lookup.bytes());
             }
             let samples = scene.camera.width * scene.camera.height * spp as usize;

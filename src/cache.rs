@@ -131,6 +131,10 @@ impl Cache {
         }
         h = h.bytes(&[lights.environment.is_some() as u8]);
         h = h.bytes(&[settings.sun_rays, settings.env_theta, settings.env_phi].map(u32::to_le_bytes).concat());
+        // Meshes occlude (hashed only when there are any, so hair-only keys stay as they were).
+        for (triangle, _) in scene.meshes.triangles() {
+            h = h.bytes(&triangle.map(|p| p.to_array().map(f32::to_le_bytes).concat()).concat());
+        }
         h = h.bytes(&ForwardLookup::VERSION.to_le_bytes());
         let path = self.entry(format!("lookup-{:016x}.bin", h.0))?;
         let segments = strands.segment_count();
@@ -138,7 +142,7 @@ impl Cache {
             return Ok(lookup);
         }
         let start = Instant::now();
-        let lookup = ForwardLookup::build(strands, &scene.fibers, camera, grid, lights, settings, progress);
+        let lookup = ForwardLookup::build(strands, scene.world(), camera, grid, lights, settings, progress);
         if progress {
             let (seen, all) = lookup.coverage();
             eprintln!(

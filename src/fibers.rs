@@ -183,6 +183,11 @@ impl Fibers {
         Fibers { bvh, capsules, neighbours, scale }
     }
 
+    /// World units to the BVH's fiber units (1 / the mean fiber radius).
+    pub fn scale(&self) -> f64 {
+        self.scale
+    }
+
     /// The original segment index of the capsule in leaf slot `slot`.
     fn id(&self, slot: usize) -> u32 {
         self.bvh.primitive_indices[slot]

@@ -2,16 +2,20 @@
 //!
 //! `path` traces full multiple scattering between fibers: next-event estimation toward one light
 //! (`Lights::sample`) combined with fiber (BCSDF) sampling by multiple importance sampling (power heuristic; Veach
-//! 1997), and Russian roulette with compensation so that it is unbiased. `single` is the same
-//! estimator stopped after the first fiber vertex (max depth 1): direct lighting only.
+//! 1997), and Russian roulette with compensation so that it is unbiased. At a mesh (`meshes.rs`)
+//! the same with a diffuse surface and cosine sampling. `single` is the same estimator stopped
+//! after the first vertex (max depth 1): direct lighting only.
 
-use crate::fibers::{Fibers, Hit};
+use crate::fibers::Hit;
 use crate::light::{LightSample, Lights};
+use crate::meshes::{self, MeshHit};
 use crate::sampler::Sampler;
+use crate::world::{Surface, World};
 use glam::{DVec3, Vec3};
 use precompute::conventions::h_offset;
 use precompute::fiber::{FiberHit, FiberModel};
 use precompute::spectrum::Rgb;
+use std::f64::consts::{FRAC_1_PI, TAU};
 
 /// An estimator of the radiance arriving along camera rays.
 pub trait Integrator: Sync {
@@ -80,10 +84,10 @@ pub(crate) fn spawn_point(hit: &Hit) -> Vec3 {
 }
 
 pub struct PathTracer<'a, M> {
-    pub fibers: &'a Fibers,
+    pub world: World<'a>,
     pub fiber: &'a M,
     pub lights: &'a Lights,
-    /// Number of fiber vertices along a path: 1 is single scattering.
+    /// Number of scattering vertices (fiber or mesh) along a path: 1 is single scattering.
     pub max_depth: u32,
 }
 
@@ -160,7 +164,7 @@ impl<M: FiberModel> PathTracer<'_, M> {
         let wi = frame.to_local(s.wi);
         // A delta light needs no density for MIS: no direction sampler can reach it.
         let (f, pdf) = if s.delta { (fiber.eval(wi), 0.0) } else { fiber.eval_pdf(wi) };
-        if f.luminance() <= 0.0 || self.fibers.occluded(from, s.wi.as_vec3(), f32::INFINITY) {
+        if f.luminance() <= 0.0 || self.world.occluded(from, s.wi.as_vec3(), f32::INFINITY) {
             return (Rgb::ZERO, false);
         }
         (f * light_weight(s, || pdf), is_backward(wo, wi))
@@ -193,32 +197,65 @@ pub(crate) fn background(lights: &Lights, dir: DVec3) -> CameraSample {
     CameraSample { radiance, hit_hair: false, terms: [Rgb::ZERO; 4] }
 }
 
+/// Where a path goes on from a vertex: the direction sampled there, its density, the weight
+/// f cos / pdf, and the backward events so far counting this vertex's.
+struct Onward {
+    dir: DVec3,
+    pdf: f64,
+    weight: Rgb,
+    backward: u32,
+}
+
 impl<M: FiberModel> Integrator for PathTracer<'_, M> {
     fn radiance(&self, origin: Vec3, dir: DVec3, sampler: &mut impl Sampler) -> CameraSample {
-        let Some(mut hit) = self.fibers.closest_hit(origin, dir.as_vec3(), f32::INFINITY) else {
+        let Some(mut surface) = self.world.closest_hit(origin, dir.as_vec3(), f32::INFINITY) else {
             return background(self.lights, dir);
         };
+        // Terms split the light that hair scatters toward the camera: a mesh the camera sees
+        // directly has none.
+        let hit_hair = matches!(surface, Surface::Fiber(_));
         let (mut radiance, mut throughput, mut dir) = (Rgb::ZERO, Rgb::ONE, dir);
         let mut terms = [Rgb::ZERO; 4];
-        // Backward events at the vertices after the camera fiber's, so far.
+        // Backward events at the vertices after the camera fiber's, so far (a mesh vertex makes
+        // none: terms class paths by their fiber events).
         let mut backward = 0;
         for depth in 1..=self.max_depth {
-            let (frame, wo, h) = hit_frame(&hit, dir);
-            let fiber = self.fiber.at(wo, h);
-            let from = spawn_point(&hit);
-            // Backward events counting this vertex's, for light arriving from `wi`.
-            let events = |back: bool| backward + (depth > 1 && back) as u32;
-
-            sample_lights(self.lights, sampler, |s| {
-                let (l, back) = self.light_contribution(s, &frame, wo, &fiber, from);
+            let mut add = |l: Rgb, events: u32| {
                 let l = throughput * l;
                 radiance += l;
-                terms[Term::of_path(depth, events(back)) as usize] += l;
-            });
-
-            // Continue by sampling the fiber.
-            let Some(s) = fiber.sample(sampler.get_4d()) else { break };
-            throughput = throughput * s.weight();
+                if hit_hair {
+                    terms[Term::of_path(depth, events) as usize] += l;
+                }
+            };
+            let (from, onward) = match &surface {
+                Surface::Fiber(hit) => {
+                    let (frame, wo, h) = hit_frame(hit, dir);
+                    let fiber = self.fiber.at(wo, h);
+                    let from = spawn_point(hit);
+                    // Backward events counting this vertex's, for light arriving from `wi`.
+                    let events = |back: bool| backward + (depth > 1 && back) as u32;
+                    sample_lights(self.lights, sampler, |s| {
+                        let (l, back) = self.light_contribution(s, &frame, wo, &fiber, from);
+                        add(l, events(back));
+                    });
+                    // Continue by sampling the fiber.
+                    let onward = fiber.sample(sampler.get_4d()).map(|s| Onward {
+                        dir: frame.to_world(s.wi).normalize(),
+                        pdf: s.pdf,
+                        weight: s.weight(),
+                        backward: events(is_backward(wo, s.wi)),
+                    });
+                    (from, onward)
+                }
+                Surface::Mesh(hit) => {
+                    let from = meshes::spawn_point(hit);
+                    sample_lights(self.lights, sampler, |s| add(diffuse_light(self.world, s, hit, from), backward));
+                    let (dir, pdf) = sample_cosine(hit.normal.as_dvec3(), sampler.get_2d());
+                    (from, Some(Onward { dir, pdf, weight: hit.albedo, backward }))
+                }
+            };
+            let Some(s) = onward else { break };
+            throughput = throughput * s.weight;
             // Russian roulette before the ray from the second vertex on (a path that ends traces
             // no more rays), compensated by 1 / (survival probability). Started at the third
             // vertex and after the ray, it took 8-31% more time per sample for noise per sample
@@ -230,24 +267,45 @@ impl<M: FiberModel> Integrator for PathTracer<'_, M> {
                 }
                 throughput = throughput / survive;
             }
-            dir = frame.to_world(s.wi).normalize();
-            let this = events(is_backward(wo, s.wi));
-            match self.fibers.closest_hit(from, dir.as_vec3(), f32::INFINITY) {
+            dir = s.dir;
+            match self.world.closest_hit(from, dir.as_vec3(), f32::INFINITY) {
                 None => {
                     let l = throughput * seen_lights(self.lights, dir, s.pdf);
                     radiance += l;
-                    terms[Term::of_path(depth, this) as usize] += l;
+                    if hit_hair {
+                        terms[Term::of_path(depth, s.backward) as usize] += l;
+                    }
                     break;
                 }
-                Some(next) => hit = next,
+                Some(next) => surface = next,
             }
-            backward = this;
+            backward = s.backward;
             if depth == self.max_depth {
                 break;
             }
         }
-        CameraSample { radiance, hit_hair: true, terms }
+        CameraSample { radiance, hit_hair, terms }
     }
+}
+
+/// Light from a light sample scattered at a diffuse mesh hit (f = albedo / pi, two-sided),
+/// MIS-weighted against cosine sampling; `from` is where the shadow ray starts.
+pub(crate) fn diffuse_light(world: World, s: &LightSample, hit: &MeshHit, from: Vec3) -> Rgb {
+    let cos = s.wi.dot(hit.normal.as_dvec3());
+    if cos <= 0.0 || world.occluded(from, s.wi.as_vec3(), f32::INFINITY) {
+        return Rgb::ZERO;
+    }
+    hit.albedo * (cos * FRAC_1_PI) * light_weight(s, || cos * FRAC_1_PI)
+}
+
+/// A cosine-weighted direction about the unit normal `n` (Malley's method: a uniform point on the
+/// disc, lifted to the hemisphere) and its solid-angle density cos / pi.
+pub(crate) fn sample_cosine(n: DVec3, u: [f64; 2]) -> (DVec3, f64) {
+    let (r, phi) = (u[0].sqrt(), TAU * u[1]);
+    let z = (1.0 - u[0]).max(0.0).sqrt();
+    let (a, b) = n.any_orthonormal_pair();
+    let d = (a * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize();
+    (d, z * FRAC_1_PI)
 }
 
 #[cfg(test)]

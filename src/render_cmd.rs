@@ -237,7 +237,7 @@ pub fn render_into(
     if let Some(inputs) = dual {
         let d = &scene.dual;
         let dual = DualScattering {
-            fibers: &scene.fibers,
+            world: scene.world(),
             fiber: &fiber,
             lights: &scene.lights,
             tables: &inputs.tables,
@@ -260,14 +260,14 @@ pub fn render_into(
         IntegratorKind::Dual => bail!("the dual integrator needs its tables and density grid"),
         IntegratorKind::Auto => bail!("`auto` must be resolved to an integrator first (resolve_auto)"),
     };
-    let (fibers, lights) = (&scene.fibers, &scene.lights);
+    let (world, lights) = (scene.world(), &scene.lights);
     match sampling {
         Sampling::Importance | Sampling::Thesis | Sampling::BoxMuller | Sampling::Iterative => {
-            let tracer = PathTracer { fibers, fiber: &fiber, lights, max_depth };
+            let tracer = PathTracer { world, fiber: &fiber, lights, max_depth };
             Ok(render(&scene.camera, &tracer, seed, sums, end, progress))
         }
         Sampling::Uniform => {
-            let tracer = PathTracer { fibers, fiber: &UniformSampled(fiber), lights, max_depth };
+            let tracer = PathTracer { world, fiber: &UniformSampled(fiber), lights, max_depth };
             Ok(render(&scene.camera, &tracer, seed, sums, end, progress))
         }
         Sampling::Light => bail!("light sampling alone needs the dual integrator"),

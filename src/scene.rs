@@ -6,7 +6,9 @@ use crate::camera::Camera;
 use crate::dual::{DualModel, Transmittance};
 use crate::fibers::Fibers;
 use crate::light::{EnvMap, Environment, Lights, Sun};
+use crate::meshes::{Mesh, Meshes, read_obj};
 use crate::transmittance::LookupSettings;
+use crate::world::World;
 use anyhow::{Context, Result, bail, ensure};
 use glam::{DMat4, DVec3, EulerRot};
 use precompute::fiber::{FiberParams, ModelKind, SamplerKind};
@@ -29,6 +31,29 @@ pub struct SceneFile {
     pub render: RenderSpec,
     #[serde(default)]
     pub dual: DualSpec,
+    /// Triangle meshes (a head): occluders and diffuse surfaces beside the hair.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub meshes: Vec<MeshSpec>,
+}
+
+/// A Wavefront OBJ mesh with a diffuse (Lambertian) surface of albedo `color` (each in [0, 1]),
+/// scaled, rotated (XYZ Euler angles in degrees) and translated as `hair` is.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct MeshSpec {
+    pub file: PathBuf,
+    #[serde(default = "mid_grey")]
+    pub color: [f64; 3],
+    #[serde(default = "one")]
+    pub scale: f64,
+    #[serde(default)]
+    pub rotate: [f64; 3],
+    #[serde(default)]
+    pub translate: [f64; 3],
+}
+
+fn mid_grey() -> [f64; 3] {
+    [0.5; 3]
 }
 
 /// The hair: a .hair file or a generator, then scaled, rotated (XYZ Euler angles in degrees) and
@@ -327,15 +352,34 @@ fn non_negative_rgb(field: &str, v: [f64; 3]) -> Result<Rgb> {
     Ok(Rgb(v))
 }
 
+/// The matrix that scales by `scale`, rotates by XYZ Euler angles `rotate` (degrees), then
+/// translates by `translate`: the transform of the hair and of each mesh (`what` names it).
+fn transform(what: &str, scale: f64, rotate: [f64; 3], translate: [f64; 3]) -> Result<DMat4> {
+    ensure!(scale.is_finite() && scale > 0.0, "{what}.scale must be finite and > 0, got {scale}");
+    let rotate = finite3(&format!("{what}.rotate"), rotate)?;
+    let translate = finite3(&format!("{what}.translate"), translate)?;
+    Ok(DMat4::from_translation(translate)
+        * DMat4::from_euler(EulerRot::XYZ, rotate.x.to_radians(), rotate.y.to_radians(), rotate.z.to_radians())
+        * DMat4::from_scale(DVec3::splat(scale)))
+}
+
 /// A scene ready to render.
 pub struct Scene {
     pub strands: Strands,
     pub fibers: Fibers,
+    pub meshes: Meshes,
     pub fiber: FiberParams,
     pub camera: Camera,
     pub lights: Lights,
     pub render: RenderSpec,
     pub dual: DualSpec,
+}
+
+impl Scene {
+    /// What rays meet: the hair and the meshes.
+    pub fn world(&self) -> World<'_> {
+        World { fibers: &self.fibers, meshes: &self.meshes }
+    }
 }
 
 impl SceneFile {
@@ -356,6 +400,7 @@ impl SceneFile {
                 lights: LightsSpec::default(),
                 render: RenderSpec::default(),
                 dual: DualSpec::default(),
+                meshes: Vec::new(),
             });
         }
         let text =
@@ -374,20 +419,25 @@ impl SceneFile {
             env.file = env.file.take().map(|f| dir.join(f));
         }
         scene.dual.density_grid = scene.dual.density_grid.map(|f| dir.join(f));
+        for mesh in &mut scene.meshes {
+            mesh.file = dir.join(&mesh.file);
+        }
         Ok(scene)
     }
 
     /// Checks every value and builds the scene: loads or generates the hair, builds the BVH,
-    /// loads the environment map and frames the camera.
+    /// reads the meshes, loads the environment map and frames the camera.
     pub fn build(&self) -> Result<Scene> {
         self.check_settings()?;
         let strands = self.hair()?;
         let camera = self.camera(&strands)?;
         let lights = self.lights()?;
         let fibers = Fibers::new(&strands);
+        let meshes = self.meshes(fibers.scale())?;
         Ok(Scene {
             strands,
             fibers,
+            meshes,
             fiber: self.fiber,
             camera,
             lights,
@@ -442,12 +492,7 @@ impl SceneFile {
             (None, Some(g)) => g.generate().context("hair.generate")?,
             _ => bail!("hair needs exactly one of `file` and `generate`"),
         };
-        ensure!(h.scale.is_finite() && h.scale > 0.0, "hair.scale must be finite and > 0, got {}", h.scale);
-        let rotate = finite3("hair.rotate", h.rotate)?;
-        let translate = finite3("hair.translate", h.translate)?;
-        let m = DMat4::from_translation(translate)
-            * DMat4::from_euler(EulerRot::XYZ, rotate.x.to_radians(), rotate.y.to_radians(), rotate.z.to_radians())
-            * DMat4::from_scale(DVec3::splat(h.scale));
+        let m = transform("hair", h.scale, h.rotate, h.translate)?;
         for p in &mut strands.points {
             *p = m.transform_point3(p.as_dvec3()).as_vec3();
         }
@@ -460,6 +505,28 @@ impl SceneFile {
         }
         strands.validate().context("hair after its transform")?;
         Ok(strands)
+    }
+
+    /// The meshes, read and transformed; `scale` turns world units into the BVH's (the hair's).
+    pub fn meshes(&self, scale: f64) -> Result<Meshes> {
+        let meshes = self
+            .meshes
+            .iter()
+            .enumerate()
+            .map(|(i, spec)| {
+                let what = format!("meshes[{i}]");
+                let m = transform(&what, spec.scale, spec.rotate, spec.translate)?;
+                let albedo = non_negative_rgb(&format!("{what}.color"), spec.color)?;
+                ensure!(albedo.0.iter().all(|&c| c <= 1.0), "{what}.color must be in [0, 1] (an albedo)");
+                let mut triangles = read_obj(&spec.file)?;
+                for p in triangles.iter_mut().flatten() {
+                    *p = m.transform_point3(p.as_dvec3()).as_vec3();
+                    ensure!(p.is_finite(), "{what}: {} leaves f32 range after its transform", spec.file.display());
+                }
+                Ok(Mesh { triangles, albedo })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Meshes::new(&meshes, scale))
     }
 
     /// The camera: as given, or framing `strands`.

@@ -26,9 +26,9 @@
 //! Units: n is dimensionless; directions are unit world vectors.
 
 use crate::camera::Camera;
-use crate::fibers::Fibers;
 use crate::integrator::{Frame, hit_frame, spawn_point};
 use crate::light::Lights;
+use crate::world::World;
 use anyhow::ensure;
 use glam::DVec3;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -120,6 +120,9 @@ fn dequantize(q: f64) -> f64 {
     (q / 32.0).exp2() - 1.0
 }
 
+/// The count of a direction that a mesh blocks: n = 250, which `quantize` stores as its largest.
+const OPAQUE: f64 = 250.0;
+
 /// Entries toward the sun, per segment.
 #[derive(Debug, PartialEq)]
 struct SunLookup {
@@ -166,7 +169,7 @@ pub struct ForwardLookup {
 /// The segments camera rays hit: k x k rays per pixel on a regular grid, spaced half a fiber
 /// width apart at the hair's center (k in 4..=32), so that few segments in view are missed. A
 /// sample's camera ray that hits one of those few anyway gets shadow rays from `dual`.
-fn seen_segments(strands: &Strands, fibers: &Fibers, camera: &Camera) -> Vec<u32> {
+fn seen_segments(strands: &Strands, world: World, camera: &Camera) -> Vec<u32> {
     let (lo, hi) = strands.bounds();
     let distance = (0.5 * (lo + hi)).as_dvec3().distance(camera.position());
     let width = 2.0 * strands.radii.iter().map(|&r| r as f64).sum::<f64>() / strands.radii.len().max(1) as f64;
@@ -176,7 +179,7 @@ fn seen_segments(strands: &Strands, fibers: &Fibers, camera: &Camera) -> Vec<u32
         .flat_map_iter(|y| {
             (0..camera.width * k).filter_map(move |x| {
                 let (o, d) = camera.ray((x as f64 + 0.5) / k as f64, (y as f64 + 0.5) / k as f64);
-                fibers.closest_hit(o, d.as_vec3(), f32::INFINITY).map(|h| h.segment)
+                world.closest_fiber(o, d.as_vec3()).map(|h| h.segment)
             })
         })
         .collect();
@@ -223,7 +226,7 @@ fn sun_bin(h: f64) -> usize {
 /// through a gap too narrow to find again, so camera rays seldom read its entries): its other
 /// points are taken on the facing half without trying.
 fn shading_points(
-    fibers: &Fibers,
+    world: World,
     s: &Segment,
     i: u32,
     tangent: DVec3,
@@ -238,7 +241,7 @@ fn shading_points(
             for _ in 0..tries {
                 let (t, across) = draw();
                 let d = (facing_point(s, tangent, viewer, t, across, 0.98) - viewer).normalize();
-                if let Some(hit) = fibers.closest_hit(viewer.as_vec3(), d.as_vec3(), f32::INFINITY)
+                if let Some(hit) = world.closest_fiber(viewer.as_vec3(), d.as_vec3())
                     && hit.segment == i
                 {
                     return (spawn_point(&hit).as_dvec3(), hit_frame(&hit, d).2);
@@ -261,14 +264,14 @@ impl ForwardLookup {
     /// each segment draws from its own random stream.
     pub fn build(
         strands: &Strands,
-        fibers: &Fibers,
+        world: World,
         camera: &Camera,
         grid: &DensityGrid,
         lights: &Lights,
         settings: &LookupSettings,
         progress: bool,
     ) -> ForwardLookup {
-        let seen = seen_segments(strands, fibers, camera);
+        let seen = seen_segments(strands, world, camera);
         // Only the segments in view, picked from the strands in one pass (`seen` is ascending).
         let mut wanted = seen.iter().copied().peekable();
         let segments: Vec<_> = strands
@@ -287,8 +290,13 @@ impl ForwardLookup {
             .expect("static progress template")
             .progress_chars("=> "),
         );
-        let escapes = |p: DVec3, d: DVec3| !fibers.occluded(p.as_vec3(), d.as_vec3(), f32::INFINITY);
-        let march = |p: DVec3, d: DVec3| grid.fibers_crossed(p, d, f64::INFINITY);
+        let escapes = |p: DVec3, d: DVec3| !world.occluded(p.as_vec3(), d.as_vec3(), f32::INFINITY);
+        // A mesh in the way (the head) is opaque: it counts as the most fibers a count holds,
+        // through which no light passes (`quantize`).
+        let march = |p: DVec3, d: DVec3| match world.meshes.occluded(p.as_vec3(), d.as_vec3(), f32::INFINITY) {
+            true => OPAQUE,
+            false => grid.fibers_crossed(p, d, f64::INFINITY),
+        };
         // Per segment: the sun's lit fraction per h bin and n, the environment's lit words and
         // counts.
         type Row = ((Vec<f32>, f32), Vec<u64>, Vec<u8>);
@@ -298,8 +306,8 @@ impl ForwardLookup {
             .map(|(row, s)| {
                 let i = seen[row] as usize;
                 let mut rng = Pcg64Mcg::seed_from_u64(0x5eed_0000 ^ i as u64);
-                let tangent = fibers.tangent_of(s).as_dvec3();
-                let points = shading_points(fibers, s, i as u32, tangent, viewer, &mut rng);
+                let tangent = world.fibers.tangent_of(s).as_dvec3();
+                let points = shading_points(world, s, i as u32, tangent, viewer, &mut rng);
                 // Sample k takes a point by a stride coprime to their count, to spread them.
                 let point = |k: usize| points[(k * 7919) % SHADING_POINTS].0;
                 let sun = lights.sun.as_ref().map_or((Vec::new(), 0.0), |sun| {
@@ -327,7 +335,7 @@ impl ForwardLookup {
                 });
                 let (mut words, mut counts) = (Vec::new(), Vec::new());
                 if let Some(env) = &env {
-                    let frame = Frame::new(fibers.tangent_of(s));
+                    let frame = Frame::new(world.fibers.tangent_of(s));
                     words = vec![0u64; env.words];
                     counts = (0..env.map.len())
                         .map(|k| {

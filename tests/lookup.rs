@@ -22,7 +22,7 @@ fn compare(settings: LookupSettings) -> [(f64, f64); 4] {
     let scene = file.build().unwrap();
     let grid = cache().density(&scene.strands, None).unwrap();
     let lookup =
-        ForwardLookup::build(&scene.strands, &scene.fibers, &scene.camera, &grid, &scene.lights, &settings, false);
+        ForwardLookup::build(&scene.strands, scene.world(), &scene.camera, &grid, &scene.lights, &settings, false);
     let chiang = Chiang::new(&scene.fiber).unwrap();
     let sun = scene.lights.sun.as_ref().unwrap().direction;
     let mut rng = Pcg64Mcg::seed_from_u64(3);

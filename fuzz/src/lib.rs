@@ -44,7 +44,7 @@ pub fn envmap(data: &[u8]) -> Result<(), String> {
     named(EnvMap::from_bytes(data, Path::new(name), 1.0, 0.0).map(drop).map_err(|e| message(e.as_ref())), name)
 }
 
-/// A scene file, parsed and built (hair, camera, lights, BVH).
+/// A scene file, parsed and built (hair, meshes, camera, lights, BVH).
 pub fn scene(data: &[u8]) -> Result<(), String> {
     let text = std::str::from_utf8(data).map_err(|e| e.to_string())?;
     let scene = SceneFile::parse(text, Path::new(SCENE)).map_err(|e| message(e.as_ref()))?;
@@ -52,7 +52,8 @@ pub fn scene(data: &[u8]) -> Result<(), String> {
     // /dev/zero would be read forever.
     let dir = Path::new(SCENE).parent().expect("SCENE has a directory");
     let env_file = scene.lights.environment.as_ref().and_then(|e| e.file.as_ref());
-    for file in [scene.hair.file.as_ref(), env_file, scene.dual.density_grid.as_ref()].into_iter().flatten() {
+    let named = [scene.hair.file.as_ref(), env_file, scene.dual.density_grid.as_ref()].into_iter().flatten();
+    for file in named.chain(scene.meshes.iter().map(|m| &m.file)) {
         if !file.starts_with(dir) || file.components().any(|c| c == Component::ParentDir) {
             return Err(format!("fuzz: {} is outside {}", file.display(), dir.display()));
         }

@@ -1,0 +1,280 @@
+//! Triangle meshes in scenes: ray hits against closed forms, OBJ input good and bad, and renders
+//! in which a mesh is shadowed by hair and shadows it, in `single`, `dual` and `path`, and a white
+//! furnace with a white mesh in `path`.
+
+mod common;
+
+use common::{cache, dualhair};
+use dualhair::film::Film;
+use dualhair::meshes::{Mesh, Meshes, read_obj};
+use dualhair::render_cmd::render_scene;
+use dualhair::scene::{IntegratorKind, SceneFile, ShadowMode};
+use glam::{DVec3, Vec3};
+use precompute::spectrum::Rgb;
+use std::path::Path;
+
+/// A quad as OBJ text: corners `a`, `b`, `c`, `d` in order (one polygon, split when read).
+fn quad_obj(corners: [[f64; 3]; 4]) -> String {
+    let v: String = corners.iter().map(|p| format!("v {} {} {}\n", p[0], p[1], p[2])).collect();
+    format!("# a quad\n{v}f 1 2 3 4\n")
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path.to_string_lossy().into_owned()
+}
+
+#[test]
+fn rays_hit_triangles_where_the_closed_form_says() {
+    // The unit square in z = 0.25, split into two triangles.
+    let square = [[0.0, 0.0, 0.25], [1.0, 0.0, 0.25], [1.0, 1.0, 0.25], [0.0, 1.0, 0.25]].map(Vec3::from_array);
+    let mesh = Mesh {
+        triangles: vec![[square[0], square[1], square[2]], [square[0], square[2], square[3]]],
+        albedo: Rgb([0.5; 3]),
+    };
+    // The scale of a hair scene (fiber radius 5e-4): the BVH's 1e-4 cut-off is then 5e-8 world units.
+    let meshes = Meshes::new(&[mesh], 2000.0);
+    for (origin, dir) in [
+        (Vec3::new(0.3, 0.6, 1.0), Vec3::new(0.0, 0.0, -1.0)),
+        (Vec3::new(0.3, 0.6, -1.0), Vec3::new(0.1, -0.2, 1.0)),
+        (Vec3::new(-0.5, 0.5, 0.75), Vec3::new(1.0, 0.0, -0.6)),
+        // Just above the surface, as a path leaving it: 1e-6 away.
+        (Vec3::new(0.9, 0.1, 0.250001), Vec3::new(0.0, 0.3, -1.0)),
+    ] {
+        let d = dir.as_dvec3().normalize();
+        let t = (0.25 - origin.z as f64) / d.z;
+        let p = origin.as_dvec3() + t * d;
+        let inside = (0.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y);
+        let hit = meshes.closest_hit(origin, dir, f32::INFINITY);
+        assert_eq!(hit.is_some(), inside, "{origin} {dir}");
+        assert_eq!(meshes.occluded(origin, dir, f32::INFINITY), inside);
+        if let Some(hit) = hit {
+            assert!((hit.t as f64 - t).abs() < 1e-6 * t.max(1e-3), "t {} vs {t}", hit.t);
+            assert!(hit.point.as_dvec3().distance(p) < 1e-6);
+            // Two-sided: the normal faces the ray's origin.
+            assert!((hit.normal.as_dvec3() - DVec3::Z * -d.z.signum()).length() < 1e-6, "{}", hit.normal);
+            assert_eq!(hit.albedo, Rgb([0.5; 3]));
+            // A shorter ray stops before the surface.
+            assert!(!meshes.occluded(origin, dir, 0.99 * t as f32));
+        }
+    }
+    assert!(Meshes::default().closest_hit(Vec3::ZERO, Vec3::X, f32::INFINITY).is_none());
+}
+
+#[test]
+fn obj_files_read_polygons_and_bad_ones_are_named_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A quad and a triangle with normals and texture coordinates, and a degenerate face dropped.
+    let good = write(
+        d,
+        "good.obj",
+        "o thing\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 2 2\nvt 0 0\nvn 0 0 1\n\
+         f 1/1/1 2/1/1 3/1/1 4/1/1\nf 1 2 5\nf 1 1 2\nl 1 2\n",
+    );
+    let triangles = read_obj(Path::new(&good)).unwrap();
+    assert_eq!(triangles.len(), 3);
+    let area: f32 = triangles.iter().map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length()).sum();
+    assert!((area - (1.0 + 0.5 * 8f32.sqrt())).abs() < 1e-5, "{area}");
+
+    for (name, text, expect) in [
+        ("index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", "vertex that does not exist"),
+        // OBJ counts from 1: index 0 is no vertex (only the file's name is asked of its message).
+        ("zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", ""),
+        ("negative.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -7 1 2\n", ""),
+        ("far.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 99999999999999999999 1 2\n", ""),
+        ("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", "not finite"),
+        ("huge.obj", "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n", "not finite"),
+        ("words.obj", "v 0 zero 0\nf 1 2 3\n", "`v` line"),
+        ("empty.obj", "# nothing\n", "holds no triangle"),
+        ("binary.obj", "\u{0}\u{1}\u{2}\u{ff}", "binary.obj"),
+    ] {
+        let path = write(d, name, text);
+        let err = format!("{:#}", read_obj(Path::new(&path)).unwrap_err());
+        assert!(err.contains(name) && err.contains(expect), "{name}: {err}");
+    }
+    let err = format!("{:#}", read_obj(&d.join("missing.obj")).unwrap_err());
+    assert!(err.contains("missing.obj") && err.contains("No such file"), "{err}");
+
+    // Through the program: a scene naming a bad mesh fails with its name, and writes nothing.
+    let out_dir = tempfile::tempdir().unwrap();
+    for (mesh, expect) in [("index.obj", "vertex that does not exist"), ("missing.obj", "missing.obj")] {
+        let scene = write(
+            d,
+            "scene.json",
+            &format!(
+                r#"{{"hair": {{"generate": {{"kind": "straight", "strands": 20}}}}, "meshes": [{{"file": "{mesh}"}}]}}"#
+            ),
+        );
+        let out = dualhair(&["render", &scene, "-o", &out_dir.path().join("x.exr").to_string_lossy(), "-q"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(expect), "{mesh}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    for (field, value, expect) in [
+        ("color", "[1.5, 0.2, 0.2]", "meshes[0].color must be in [0, 1]"),
+        ("color", "[-1, 0.2, 0.2]", "meshes[0].color must be finite and >= 0"),
+        ("scale", "0", "meshes[0].scale must be finite and > 0"),
+        ("scale", "-2", "meshes[0].scale must be finite and > 0"),
+    ] {
+        let scene = write(
+            d,
+            "scene.json",
+            &format!(
+                r#"{{"hair": {{"generate": {{"kind": "straight", "strands": 20}}}}, "meshes": [{{"file": "good.obj", "{field}": {value}}}]}}"#
+            ),
+        );
+        let out = dualhair(&["render", &scene, "-o", &out_dir.path().join("x.exr").to_string_lossy(), "-q"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(expect), "{field} {value}: {err}");
+    }
+    assert_eq!(std::fs::read_dir(out_dir.path()).unwrap().count(), 0, "a failed render left a file");
+}
+
+/// A straight swatch (x in [-0.4, 0.4], z in [-0.5, 0.5], y about 0) of brown hair, seen from -y
+/// by a 64x64 camera at distance 5, lit by `sun` only, with `meshes` (JSON) from `dir`.
+fn swatch_scene(dir: &Path, sun: [f64; 3], meshes: &str, integrator: IntegratorKind, spp: u32) -> SceneFile {
+    let json = format!(
+        r#"{{
+  "hair": {{"generate": {{"kind": "straight", "strands": 1500, "points": 8, "width": 0.8, "depth": 0.05, "radius": 0.003}}}},
+  "fiber": {{"absorption": {{"melanin": {{"eumelanin": 1.3}}}}}},
+  "camera": {{"position": [0, -5, 0], "look_at": [0, 0, 0], "fov": 40, "width": 64, "height": 64}},
+  "lights": {{"sun": {{"direction": {sun:?}, "irradiance": 3}}}},
+  "render": {{"spp": {spp}}},
+  "meshes": {meshes}
+}}"#
+    );
+    let mut file = SceneFile::load(Path::new(&write(dir, "scene.json", &json))).unwrap();
+    file.render.integrator = integrator;
+    file
+}
+
+/// Mean luminance of the pixels whose camera ray, continued to the plane y = `y`, lands where
+/// `inside(x, z)` holds and whose coverage by hair is `hair` (fully or not at all).
+fn region_mean(file: &SceneFile, film: &Film, y: f64, hair: bool, inside: impl Fn(f64, f64) -> bool) -> f64 {
+    let camera = file.build().unwrap().camera;
+    let mut values = Vec::new();
+    for py in 0..film.height {
+        for px in 0..film.width {
+            let (o, d) = camera.ray(px as f64 + 0.5, py as f64 + 0.5);
+            let p = o.as_dvec3() + d * ((y - o.y as f64) / d.y);
+            let i = py * film.width + px;
+            let covered = if hair { film.alpha[i] >= 1.0 } else { film.alpha[i] == 0.0 };
+            if covered && inside(p.x, p.z) {
+                values.push(film.mean[i].luminance());
+            }
+        }
+    }
+    assert!(values.len() >= 20, "only {} pixels in the region", values.len());
+    values.iter().sum::<f64>() / values.len() as f64
+}
+
+const INTEGRATORS: [(IntegratorKind, ShadowMode); 4] = [
+    (IntegratorKind::Single, ShadowMode::Rays),
+    (IntegratorKind::Dual, ShadowMode::Lookup),
+    (IntegratorKind::Dual, ShadowMode::Rays),
+    (IntegratorKind::Path, ShadowMode::Rays),
+];
+
+#[test]
+fn hair_shadows_a_diffuse_quad_behind_it() {
+    let dir = tempfile::tempdir().unwrap();
+    // A grey quad 0.6 behind the swatch; the sun from the left front, so the swatch's shadow falls
+    // on the quad at x in [0.2, 1.0], half of it beside the swatch as the camera sees it.
+    write(dir.path(), "wall.obj", &quad_obj([[-2.0, 0.6, -1.5], [2.0, 0.6, -1.5], [2.0, 0.6, 1.5], [-2.0, 0.6, 1.5]]));
+    let meshes = r#"[{"file": "wall.obj", "color": [0.8, 0.8, 0.8]}]"#;
+    for (integrator, shadows) in INTEGRATORS {
+        let mut file = swatch_scene(dir.path(), [-1.0, -1.0, 0.0], meshes, integrator, 16);
+        file.dual.shadows = shadows;
+        let film = render_scene(&file.build().unwrap(), &cache(), false).unwrap();
+        let shadowed = region_mean(&file, &film, 0.6, false, |x, z| (0.5..0.9).contains(&x) && z.abs() < 0.35);
+        let lit = region_mean(&file, &film, 0.6, false, |x, z| (-0.9..-0.5).contains(&x) && z.abs() < 0.35);
+        let hair = region_mean(&file, &film, 0.0, true, |x, z| x.abs() < 0.3 && z.abs() < 0.4);
+        println!("{integrator:?} ({shadows:?}): wall lit {lit:.4}, in the hair's shadow {shadowed:.4}, hair {hair:.4}");
+        // Lit: irradiance 3 at 45 degrees on albedo 0.8: 0.8 / pi * 3 cos 45 = 0.540.
+        assert!((lit - 0.540).abs() < 0.03, "{integrator:?}: lit wall {lit}");
+        assert!(shadowed < 0.5 * lit, "{integrator:?}: the hair's shadow {shadowed} vs {lit}");
+        assert!(hair > 0.0);
+    }
+}
+
+#[test]
+fn a_mesh_between_the_sun_and_the_hair_darkens_it() {
+    let dir = tempfile::tempdir().unwrap();
+    // The sun from the front above; a horizontal quad above the left half of the swatch (x < 0)
+    // shades it, the right half stays lit.
+    write(dir.path(), "roof.obj", &quad_obj([[-2.0, -3.0, 1.0], [0.0, -3.0, 1.0], [0.0, 1.0, 1.0], [-2.0, 1.0, 1.0]]));
+    for (integrator, shadows) in INTEGRATORS {
+        let mut side = Vec::new();
+        for meshes in ["[]", r#"[{"file": "roof.obj"}]"#] {
+            let mut file = swatch_scene(dir.path(), [0.0, -1.0, 1.0], meshes, integrator, 16);
+            file.dual.shadows = shadows;
+            let film = render_scene(&file.build().unwrap(), &cache(), false).unwrap();
+            let left = region_mean(&file, &film, 0.0, true, |x, z| (-0.35..-0.1).contains(&x) && z.abs() < 0.4);
+            let right = region_mean(&file, &film, 0.0, true, |x, z| (0.1..0.35).contains(&x) && z.abs() < 0.4);
+            side.push((left, right));
+        }
+        let [(left, right), (left_roof, right_roof)] = side[..] else { unreachable!() };
+        println!(
+            "{integrator:?} ({shadows:?}): hair left {left:.4} -> {left_roof:.4} under the roof, right {right:.4} -> {right_roof:.4}"
+        );
+        assert!(left_roof < 0.3 * left, "{integrator:?}: the roof's shadow {left_roof} vs {left}");
+        assert!((right_roof / right - 1.0).abs() < 0.1, "{integrator:?}: the lit side {right_roof} vs {right}");
+    }
+}
+
+#[test]
+fn a_white_furnace_with_a_white_mesh_is_white() {
+    let dir = tempfile::tempdir().unwrap();
+    // A floor under the hair ball and a wall through it, both white: every pixel, hair or mesh,
+    // sees radiance 1.
+    write(
+        dir.path(),
+        "white.obj",
+        &format!(
+            "{}{}",
+            quad_obj([[-3.0, -3.0, -1.2], [3.0, -3.0, -1.2], [3.0, 3.0, -1.2], [-3.0, 3.0, -1.2]]),
+            "v 0.2 -2 -2\nv 0.2 2 -2\nv 0.2 2 2\nv 0.2 -2 2\nf 5 6 7 8\n"
+        ),
+    );
+    let json = r#"{
+  "hair": {"generate": {"kind": "ball", "strands": 3000}},
+  "fiber": {"absorption": {"sigma_a": [0, 0, 0]}},
+  "camera": {"position": [0.3, -3, 1], "look_at": [0, 0, -0.2], "fov": 40, "width": 64, "height": 64},
+  "lights": {"environment": {"color": [1, 1, 1]}},
+  "render": {"integrator": "path", "spp": 64, "max_depth": 1024},
+  "meshes": [{"file": "white.obj", "color": [1, 1, 1]}]
+}"#;
+    let file = SceneFile::load(Path::new(&write(dir.path(), "furnace.json", json))).unwrap();
+    let film = render_scene(&file.build().unwrap(), &cache(), false).unwrap();
+    let mean = |hair: bool| {
+        let px: Vec<_> = (0..film.alpha.len()).filter(|&i| (film.alpha[i] >= 1.0) == hair).collect();
+        let n = px.len() as f64;
+        let se = (px.iter().map(|&i| film.variance[i].luminance()).sum::<f64>() / (n * n)).sqrt();
+        (px.iter().map(|&i| film.mean[i].luminance()).sum::<f64>() / n, se, px.len())
+    };
+    let ((hair, hair_se, n_hair), (rest, rest_se, n_rest)) = (mean(true), mean(false));
+    println!(
+        "furnace with meshes: hair {hair:.4} +- {hair_se:.4} ({n_hair} px), the rest {rest:.4} +- {rest_se:.4} ({n_rest} px)"
+    );
+    assert!(n_hair > 200 && n_rest > 1000, "{n_hair} hair pixels, {n_rest} others");
+    assert!((hair - 1.0).abs() < 0.02, "hair pixels {hair}");
+    assert!((rest - 1.0).abs() < 0.02, "mesh and sky pixels {rest}");
+    // And a mesh pixel far from 1 would show here (the floor in the corners).
+    let worst = film.mean.iter().map(|p| (p.luminance() - 1.0).abs()).fold(0.0, f64::max);
+    assert!(worst < 0.5, "a pixel at {worst} from 1");
+}
+
+#[test]
+fn single_is_path_at_depth_one_with_a_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "wall.obj", &quad_obj([[-2.0, 0.6, -1.5], [2.0, 0.6, -1.5], [2.0, 0.6, 1.5], [-2.0, 0.6, 1.5]]));
+    let meshes = r#"[{"file": "wall.obj", "color": [0.3, 0.6, 0.9]}]"#;
+    let single = swatch_scene(dir.path(), [-1.0, -1.0, 0.3], meshes, IntegratorKind::Single, 4);
+    let mut path = swatch_scene(dir.path(), [-1.0, -1.0, 0.3], meshes, IntegratorKind::Path, 4);
+    path.render.max_depth = 1;
+    let [a, b] = [single, path].map(|f| render_scene(&f.build().unwrap(), &cache(), false).unwrap());
+    assert!(a.mean == b.mean && a.alpha == b.alpha, "single and path at depth 1 differ");
+    assert!(a.mean.iter().any(|p| p.0[2] > 2.0 * p.0[0]), "the blue wall is not in the picture");
+}

@@ -13,7 +13,7 @@ use anyhow::{Context, Result, bail, ensure};
 use glam::{DMat4, DVec3, EulerRot};
 use precompute::fiber::{FiberParams, ModelKind, SamplerKind};
 use precompute::spectrum::Rgb;
-use precompute::strands::{Generator, Strands, read_hair};
+use precompute::strands::{Generator, Strands, is_hair_file, read_hair};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -385,7 +385,7 @@ impl Scene {
 impl SceneFile {
     /// Reads a scene file; a `.hair` file stands for a scene with that hair and every default.
     pub fn load(path: &Path) -> Result<SceneFile> {
-        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("hair")) {
+        if is_hair_file(path) {
             return Ok(SceneFile {
                 hair: HairSpec {
                     file: Some(path.to_path_buf()),

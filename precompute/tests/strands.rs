@@ -366,6 +366,31 @@ fn real_groom_fixture_matches_an_independent_reader() {
     }
 }
 
+#[test]
+fn bundled_groom_reads_through_gzip_as_an_independent_decoder_and_its_readme_say() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/groom/wavy_short.hair.gz");
+    let strands = read_hair(&path).unwrap();
+    // The groom's README (measured there with an independent reader).
+    assert_eq!((strands.strand_count(), strands.points.len()), (30_033, 690_759));
+    assert!((strands.total_length() - 27_937.0).abs() < 0.5, "{}", strands.total_length());
+    // The system's gzip decodes the same bytes.
+    let out = std::process::Command::new("gzip").arg("-dc").arg(&path).output().expect("gzip runs");
+    assert!(out.status.success());
+    assert_same_as_independent(&strands, &independent_read(&out.stdout));
+
+    // A truncated stream and a file that is no gzip are errors naming the file.
+    let dir = std::env::temp_dir().join(format!("strands-gzip-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let compressed = std::fs::read(&path).unwrap();
+    for (name, bytes) in [("cut.hair.gz", &compressed[..compressed.len() / 2]), ("plain.hair.gz", &out.stdout[..])] {
+        let bad = dir.join(name);
+        std::fs::write(&bad, bytes).unwrap();
+        let err = read_hair(&bad).unwrap_err().to_string();
+        assert!(err.contains(name), "{err}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 // ---------------------------------------------------------------------------------------------
 // Generators
 

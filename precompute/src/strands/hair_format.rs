@@ -5,11 +5,12 @@
 //! char[88] info), then the arrays the flags name, in flag order: u16 segments per strand, f32 xyz
 //! points, f32 thickness per point (a diameter), f32 transparency per point, f32 rgb color per point.
 //! A strand with s segments has s + 1 points. Transparency and colors are checked for size and skipped:
-//! the renderer takes its material from the scene.
+//! the renderer takes its material from the scene. A `.hair.gz` file is a gzip of one (the bundled
+//! groom is stored so), decoded as it is read.
 
 use super::{StrandError, Strands};
 use glam::Vec3;
-use std::io::{self, Write};
+use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 4] = b"HAIR";
@@ -67,9 +68,35 @@ pub enum HairError {
     Geometry(#[from] StrandError),
 }
 
-/// Reads a .hair file; every error names `path`.
+/// Deflate expands at most 1032:1, so a gzip stream that decodes to more than that many times its
+/// file's size is not one; reading stops there (a lying stream cannot fill memory).
+const GZIP_MAX_EXPANSION: u64 = 1032;
+
+/// Whether `path` names a gzip-compressed .hair file (`.hair.gz`, or any `.gz`).
+fn is_gzip(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz"))
+}
+
+/// Whether `path` names a hair file this reader takes: `.hair` or `.hair.gz`.
+pub fn is_hair_file(path: &Path) -> bool {
+    let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    name.ends_with(".hair") || name.ends_with(".hair.gz")
+}
+
+/// Reads a .hair file, or a gzip-compressed one (`.gz`, decoded as it is read); every error names
+/// `path`.
 pub fn read_hair(path: &Path) -> Result<Strands, HairError> {
-    let bytes = std::fs::read(path).map_err(|error| HairError::Io { path: path.to_owned(), error })?;
+    let io = |error| HairError::Io { path: path.to_owned(), error };
+    let bytes = if is_gzip(path) {
+        let file = std::fs::File::open(path).map_err(io)?;
+        let limit = file.metadata().map_err(io)?.len().saturating_mul(GZIP_MAX_EXPANSION);
+        let mut bytes = Vec::new();
+        let decoder = flate2::read::MultiGzDecoder::new(io::BufReader::new(file));
+        decoder.take(limit).read_to_end(&mut bytes).map_err(io)?;
+        bytes
+    } else {
+        std::fs::read(path).map_err(io)?
+    };
     parse_hair(&bytes).map_err(|error| HairError::InFile { path: path.to_owned(), error: Box::new(error) })
 }
 

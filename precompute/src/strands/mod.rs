@@ -9,7 +9,7 @@ mod generate;
 mod hair_format;
 
 pub use generate::{Ball, Curly, GenerateError, Generator, MAX_STRAND_POINTS, MAX_TOTAL_POINTS, Scalp, Straight, Wavy};
-pub use hair_format::{HairError, parse_hair, read_hair, write_hair};
+pub use hair_format::{HairError, is_hair_file, parse_hair, read_hair, write_hair};
 
 use glam::Vec3;
 

@@ -10,6 +10,7 @@ pub mod camera;
 pub mod compare;
 pub mod compare_cmd;
 pub mod converge_cmd;
+pub mod convert_cmd;
 pub mod dual;
 pub mod fiber_args;
 pub mod fibers;

@@ -2,6 +2,7 @@ use clap::{Parser, Subcommand};
 use dualhair::calibrate_cmd::{self, CalibrateArgs};
 use dualhair::compare_cmd::{self, CompareArgs};
 use dualhair::converge_cmd::{self, ConvergeArgs};
+use dualhair::convert_cmd::{self, ConvertArgs};
 use dualhair::fibersim_cmd::{self, FibersimArgs};
 use dualhair::interrupt::{EXIT_STATUS, Interrupted};
 use dualhair::lobe_cmd::{self, LobeArgs};
@@ -46,6 +47,9 @@ enum Command {
     /// Write a scene with everything derived made explicit (hair as a .hair file in world units,
     /// camera, sigma_a, absolute paths), e.g. for tools/cycles_reference.py.
     Resolve(ResolveArgs),
+    /// Convert hair between formats (.hair, .hair.gz, pbrt-v4 curves in, .hair or .hair.gz out),
+    /// with the transform flags of scene files.
+    Convert(ConvertArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -61,6 +65,7 @@ fn main() -> std::process::ExitCode {
         Command::Compare(args) => compare_cmd::run(args),
         Command::Calibrate(args) => calibrate_cmd::run(args),
         Command::Resolve(args) => resolve_cmd::run(args),
+        Command::Convert(args) => convert_cmd::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

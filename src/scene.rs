@@ -13,7 +13,7 @@ use anyhow::{Context, Result, bail, ensure};
 use glam::{DMat4, DVec3, EulerRot};
 use precompute::fiber::{FiberParams, ModelKind, SamplerKind};
 use precompute::spectrum::Rgb;
-use precompute::strands::{Generator, Strands, is_hair_file, read_hair};
+use precompute::strands::{Generator, HairFormat, Strands, read_strands};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -383,9 +383,9 @@ impl Scene {
 }
 
 impl SceneFile {
-    /// Reads a scene file; a `.hair` file stands for a scene with that hair and every default.
+    /// Reads a scene file; a hair file (`.hair`, `.hair.gz`, `.pbrt`, `.pbrt.gz`) stands for a scene with that hair and every default.
     pub fn load(path: &Path) -> Result<SceneFile> {
-        if is_hair_file(path) {
+        if HairFormat::of(path).is_some() {
             return Ok(SceneFile {
                 hair: HairSpec {
                     file: Some(path.to_path_buf()),
@@ -488,7 +488,7 @@ impl SceneFile {
     pub fn hair(&self) -> Result<Strands> {
         let h = &self.hair;
         let mut strands = match (&h.file, &h.generate) {
-            (Some(file), None) => read_hair(file)?,
+            (Some(file), None) => read_strands(file)?,
             (None, Some(g)) => g.generate().context("hair.generate")?,
             _ => bail!("hair needs exactly one of `file` and `generate`"),
         };

@@ -77,12 +77,6 @@ fn is_gzip(path: &Path) -> bool {
     path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz"))
 }
 
-/// Whether `path` names a hair file this reader takes: `.hair` or `.hair.gz`.
-pub fn is_hair_file(path: &Path) -> bool {
-    let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
-    name.ends_with(".hair") || name.ends_with(".hair.gz")
-}
-
 /// Reads a .hair file, or a gzip-compressed one (`.gz`, decoded as it is read); every error names
 /// `path`.
 pub fn read_hair(path: &Path) -> Result<Strands, HairError> {

@@ -7,11 +7,57 @@
 
 mod generate;
 mod hair_format;
+mod pbrt_curves;
 
 pub use generate::{Ball, Curly, GenerateError, Generator, MAX_STRAND_POINTS, MAX_TOTAL_POINTS, Scalp, Straight, Wavy};
-pub use hair_format::{HairError, is_hair_file, parse_hair, read_hair, write_hair};
+pub use hair_format::{HairError, parse_hair, read_hair, write_hair};
+pub use pbrt_curves::{PbrtError, read_pbrt_curves};
 
 use glam::Vec3;
+use std::path::Path;
+
+/// Hair files this crate reads, by name: Cem Yuksel's .hair (also gzipped, `.hair.gz`) and
+/// pbrt-v4 scenes (`.pbrt`, `.pbrt.gz`), whose curve shapes become strands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HairFormat {
+    Hair,
+    Pbrt,
+}
+
+impl HairFormat {
+    /// The format of the file `path` names, if it is one of the hair formats.
+    pub fn of(path: &Path) -> Option<HairFormat> {
+        let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+        let name = name.strip_suffix(".gz").unwrap_or(&name);
+        if name.ends_with(".hair") {
+            Some(HairFormat::Hair)
+        } else if name.ends_with(".pbrt") {
+            Some(HairFormat::Pbrt)
+        } else {
+            None
+        }
+    }
+}
+
+/// A hair file that cannot be read, in its format's terms.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    #[error(transparent)]
+    Hair(#[from] HairError),
+    #[error(transparent)]
+    Pbrt(#[from] PbrtError),
+    #[error("{}: not a hair file this reader knows (.hair, .hair.gz, .pbrt or .pbrt.gz)", .0.display())]
+    Unknown(std::path::PathBuf),
+}
+
+/// Reads strands from a .hair(.gz) file or the curves of a .pbrt(.gz) scene, by the file's name.
+pub fn read_strands(path: &Path) -> Result<Strands, ReadError> {
+    match HairFormat::of(path) {
+        Some(HairFormat::Hair) => Ok(read_hair(path)?),
+        Some(HairFormat::Pbrt) => Ok(read_pbrt_curves(path)?),
+        None => Err(ReadError::Unknown(path.to_owned())),
+    }
+}
 
 /// Strands in one flat layout: strand `s` owns points `offsets[s]..offsets[s + 1]`.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -8,7 +8,8 @@
 //!   terms of [`Term`] (path: by the events on the path; dual: by its terms), as shares of the
 //!   reference's total, so the table shows which dual term misses which light;
 //! - accuracy: mean luminance ratio dual/path and the relative RMSE of 4x4-pixel block means
-//!   over fully covered blocks, with the part both images' noise explains.
+//!   over fully covered blocks, with the part both images' noise explains and the rest (bias),
+//!   and the mean ratio over every pixel with hair in it (silhouettes carry a back sun's light).
 //!
 //! With DUALHAIR_ACC_SWEEP=1 it also measures speed: the wall time `dual` needs to come within 10%
 //! of its converged error, and the time `path` needs for that error, in the same run.
@@ -17,7 +18,7 @@
 //! DUALHAIR_ACC_DUAL_SPP (default 2048), DUALHAIR_ACC_MODELS (comma-separated variants, each
 //! `NAME[@D_F/D_B][:SHADOWS]`, NAME as for `render --dual-model`, SHADOWS `lookup` (default) or `rays`;
 //! default `zinke2008@0.7/0.7:rays,two_stream:rays,two_stream`),
-//! DUALHAIR_ACC_GROOMS (comma-separated .hair files), DUALHAIR_ACC_SEEDS (default 1: with more,
+//! DUALHAIR_ACC_GROOMS (comma-separated .hair files), DUALHAIR_ACC_LOOKUP (`dual.lookup` as JSON), DUALHAIR_ACC_SEEDS (default 1: with more,
 //! each `dual` render is repeated with seeds 1, 2, ..., its mean ratio is the mean over seeds with
 //! its standard error, and a model rendered both with `rays` and with the lookup gets a line
 //! `lookup / rays` with the mean and standard error over seeds of the ratio of the two renders of
@@ -95,9 +96,9 @@ fn main() {
     std::fs::create_dir_all(&refs).unwrap();
     println!("{size}x{size} pixels, reference path {ref_spp} spp, dual {dual_spp} spp; 4x4 blocks");
     println!(
-        "| hair | light | image | d_f, d_b | single | forward | back | multiback | mean ratio | block rel. RMSE (noise) |"
+        "| hair | light | image | d_f, d_b | single | forward | back | multiback | mean ratio | block rel. RMSE (noise), bias | mean ratio, all hair pixels |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let mut hairs: Vec<(String, Option<PathBuf>)> = ["blond", "brown", "black"].map(|h| (h.to_string(), None)).to_vec();
     for g in grooms.split(',').filter(|g| !g.is_empty()) {
         let stem = Path::new(g).file_stem().unwrap().to_string_lossy().to_string();
@@ -136,9 +137,10 @@ fn main() {
             path.render.spp = ref_spp;
             let reference = reference(&path, &cache, &refs, &name.replace(['/', ' '], "_"));
             let pixels = hair_pixels(&reference);
+            let any_hair: Vec<usize> = (0..reference.alpha.len()).filter(|&i| reference.alpha[i] > 0.0).collect();
             let total = mean_luminance(&reference, &pixels);
             let shares = |film: &Film| term_means(film, &pixels).map(|t| format!("{:.3}", t / total)).join(" | ");
-            println!("| {hair} | {light} | path | - | {} | 1 | - |", shares(&reference));
+            println!("| {hair} | {light} | path | - | {} | 1 | - | 1 |", shares(&reference));
             // Each model's mean ratio per seed, by (model with factors, shadows).
             let mut ratios: Vec<((&str, &str), Vec<f64>)> = Vec::new();
             for spec in models.split(',') {
@@ -150,19 +152,26 @@ fn main() {
                 dual.render.seed = 1;
                 dual.dual.model = <DualModel as clap::ValueEnum>::from_str(model, true).unwrap();
                 dual.dual.shadows = <ShadowMode as clap::ValueEnum>::from_str(shadows, true).unwrap();
+                if let Ok(settings) = std::env::var("DUALHAIR_ACC_LOOKUP") {
+                    dual.dual.lookup = serde_json::from_str(&settings).unwrap();
+                }
                 if let Some((f, b)) = d.split_once('/') {
                     (dual.dual.d_f, dual.dual.d_b) = (f.parse().unwrap(), b.parse().unwrap());
                 }
                 let (film, secs) = timed_render(&dual, &cache, true);
-                let blocks = block_relative_rmse(&film, &reference, 4)
-                    .map_or("no full block".into(), |(e, n)| format!("{:.1}% ({:.1}%)", 100.0 * e, 100.0 * n));
+                // The error's bias part: what the images' noise does not explain.
+                let blocks = block_relative_rmse(&film, &reference, 4).map_or("no full block".into(), |(e, n)| {
+                    let bias = (e * e - n * n).max(0.0).sqrt();
+                    format!("{:.1}% ({:.1}%), bias {:.1}%", 100.0 * e, 100.0 * n, 100.0 * bias)
+                });
+                let all = mean_luminance(&film, &any_hair) / mean_luminance(&reference, &any_hair);
                 let mut seeds = vec![mean_luminance(&film, &pixels) / total];
                 for seed in 2..=env_or("DUALHAIR_ACC_SEEDS", 1u64) {
                     dual.render.seed = seed;
                     seeds.push(mean_luminance(&timed_render(&dual, &cache, false).0, &pixels) / total);
                 }
                 println!(
-                    "| {hair} | {light} | dual {model} ({shadows}) | {}, {} | {} | {} | {blocks} |",
+                    "| {hair} | {light} | dual {model} ({shadows}) | {}, {} | {} | {} | {blocks} | {all:.3} |",
                     dual.dual.d_f,
                     dual.dual.d_b,
                     shares(&film),

@@ -120,11 +120,8 @@ fn main() {
     );
     let lookup = stage(
         "forward-transmittance lookup",
-        |l: &ForwardLookup| format!("{} of {} segments in view, {}", l.coverage().0, l.coverage().1, mb(l.bytes())),
-        || {
-            let s = &scene;
-            ForwardLookup::build(&s.strands, s.world(), &s.camera, &grid, &s.lights, &s.dual.lookup, true)
-        },
+        |l: &ForwardLookup| format!("{} maps, {}", l.maps(), mb(l.bytes())),
+        || ForwardLookup::build(&scene.strands, &scene.lights, &scene.dual.lookup, true),
     );
     let inputs = DualInputs { tables, grid, lookup: Some(lookup) };
     let samples = (file.camera.width * file.camera.height) as f64 * file.render.spp as f64;

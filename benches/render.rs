@@ -166,14 +166,9 @@ fn main() {
             let scene = file.build().unwrap();
             // Tables, grid and lookup first, so that only rendering is timed.
             let inputs = DualInputs::load(&scene, &cache, false).unwrap();
-            if let Some(DualInputs { grid, .. }) = &inputs
-                && shadows == ShadowMode::Lookup
-                && light_samples.is_some()
-            {
+            if shadows == ShadowMode::Lookup && light_samples.is_some() {
                 let start = Instant::now();
-                let s = &scene;
-                let lookup =
-                    ForwardLookup::build(&s.strands, s.world(), &s.camera, grid, &s.lights, &file.dual.lookup, false);
+                let lookup = ForwardLookup::build(&scene.strands, &scene.lights, &file.dual.lookup, false);
                 build = (start.elapsed().as_secs_f64(), lookup.bytes());
             }
             let samples = scene.camera.width * scene.camera.height * spp as usize;

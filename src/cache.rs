@@ -32,6 +32,7 @@ pub(crate) fn spinner(show: bool, message: String) -> ProgressBar {
 const VERSION: u64 = 1;
 
 /// 64-bit FNV-1a (Fowler, Noll, Vo): stable across platforms and compiler versions.
+#[derive(Clone, Copy)]
 pub(crate) struct Fnv(pub(crate) u64);
 
 impl Fnv {
@@ -111,48 +112,65 @@ impl Cache {
         Ok(grid)
     }
 
-    /// The forward-transmittance lookup of a scene's hair, seen by its camera, toward its lights;
-    /// `progress` shows a bar while it is built. Keyed by the strands, the camera, the density
-    /// grid's contents, the sun's direction and disc, whether there is an environment (its
-    /// directions are fixed, so its image does not matter), the lookup's resolutions and the
-    /// build's version.
-    pub fn lookup(&self, scene: &Scene, grid: &DensityGrid, progress: bool) -> Result<ForwardLookup> {
-        let (strands, lights, settings, camera) = (&scene.strands, &scene.lights, &scene.dual.lookup, &scene.camera);
-        let mut h = hash_strands(Fnv::new(), strands).bytes(format!("{camera:?}").as_bytes());
-        h = h.bytes(&grid.voxel_size.to_le_bytes()).bytes(&grid.fiber_width.to_le_bytes());
-        let mut bricks: Vec<_> = grid.bricks().collect();
-        bricks.sort_unstable_by_key(|(k, _)| *k);
-        for (k, values) in bricks {
-            h = h.bytes(&k.map(i32::to_le_bytes).concat()).bytes(&values.map(f32::to_le_bytes).concat());
-        }
-        if let Some(sun) = &lights.sun {
-            h = h.bytes(&[1]).bytes(&sun.direction.to_array().map(f64::to_le_bytes).concat());
-            h = h.bytes(&sun.half_angle.to_le_bytes());
-        }
-        h = h.bytes(&[lights.environment.is_some() as u8]);
-        h = h.bytes(&[settings.sun_rays, settings.env_theta, settings.env_phi].map(u32::to_le_bytes).concat());
-        // Meshes occlude (hashed only when there are any, so hair-only keys stay as they were).
-        for (triangle, _) in scene.meshes.triangles() {
-            h = h.bytes(&triangle.map(|p| p.to_array().map(f32::to_le_bytes).concat()).concat());
-        }
-        h = h.bytes(&ForwardLookup::VERSION.to_le_bytes());
-        let path = self.entry(format!("lookup-{:016x}.bin", h.0))?;
-        let segments = strands.segment_count();
-        if let Some(lookup) = std::fs::read(&path).ok().and_then(|b| ForwardLookup::read(&b, segments)) {
+    /// The forward-transmittance lookup of a scene's hair toward its lights; `progress` shows a
+    /// bar while it is built. The sun's map and the environment's maps are two entries, each
+    /// keyed by the strands, its resolution, its directions (the sun's direction and disc; the
+    /// environment's are fixed, so its image does not matter) and the build's version: never by
+    /// the camera or the meshes.
+    pub fn lookup(&self, scene: &Scene, progress: bool) -> Result<ForwardLookup> {
+        let (strands, lights, settings) = (&scene.strands, &scene.lights, &scene.dual.lookup);
+        let hair = hash_strands(Fnv::new(), strands).bytes(&ForwardLookup::VERSION.to_le_bytes());
+        let sun = match &lights.sun {
+            Some(sun) => {
+                let key = [sun.direction.x, sun.direction.y, sun.direction.z, sun.half_angle, settings.sun_texel];
+                let h = hair.bytes(b"sun").bytes(&key.map(f64::to_le_bytes).concat());
+                let path = self.entry(format!("lookup-sun-{:016x}.bin", h.0))?;
+                let build = || {
+                    let spinner = spinner(progress, "building the forward-transmittance map of the sun".into());
+                    let lookup = ForwardLookup::sun(strands, sun.direction, sun.half_angle, settings);
+                    spinner.finish_and_clear();
+                    lookup
+                };
+                Some(self.lookup_entry(&path, "the sun", progress, build)?)
+            }
+            None => None,
+        };
+        let env = match &lights.environment {
+            Some(_) => {
+                let h = hair.bytes(b"env").bytes(&settings.env_texel.to_le_bytes()).bytes(&settings.env_grid.to_le_bytes());
+                let path = self.entry(format!("lookup-sky-{:016x}.bin", h.0))?;
+                let build = || ForwardLookup::environment(strands, settings, progress);
+                Some(self.lookup_entry(&path, "the sky", progress, build)?)
+            }
+            None => None,
+        };
+        Ok(ForwardLookup::join(sun, env))
+    }
+
+    /// One cached part of the lookup: read from `path`, else built and written there.
+    fn lookup_entry(
+        &self,
+        path: &Path,
+        what: &str,
+        progress: bool,
+        build: impl FnOnce() -> ForwardLookup,
+    ) -> Result<ForwardLookup> {
+        if let Some(lookup) = std::fs::read(path).ok().and_then(|b| ForwardLookup::read(&b)) {
             return Ok(lookup);
         }
         let start = Instant::now();
-        let lookup = ForwardLookup::build(strands, scene.world(), camera, grid, lights, settings, progress);
+        let lookup = build();
         if progress {
-            let (seen, all) = lookup.coverage();
             eprintln!(
-                "built the forward-transmittance lookup for the {seen} of {all} segments in view in {:.1} s ({:.1} MB, cached in {})",
+                "built {} forward-transmittance map{} of {what} in {:.1} s ({:.1} MB, cached in {})",
+                lookup.maps(),
+                if lookup.maps() == 1 { "" } else { "s" },
                 start.elapsed().as_secs_f64(),
                 lookup.bytes() as f64 / 1e6,
                 path.display()
             );
         }
-        write_atomically(&path, |tmp| {
+        write_atomically(path, |tmp| {
             let mut w = std::io::BufWriter::new(std::fs::File::create(tmp)?);
             lookup.write(&mut w)?;
             Ok(w.flush()?)

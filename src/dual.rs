@@ -51,7 +51,7 @@
 
 use crate::fibers::Hit;
 use crate::integrator::{
-    CameraSample, Frame, Integrator, Term, Terms, background, diffuse_light, hit_frame, light_weight, sample_cosine,
+    CameraSample, Frame, Integrator, Term, Terms, background, hit_frame, light_weight, sample_cosine,
     sample_lights, seen_lights, spawn_point,
 };
 use crate::light::{LightSample, Lights};
@@ -61,7 +61,9 @@ use crate::scene::Sampling;
 use crate::transmittance::ForwardLookup;
 use crate::world::{Surface, World};
 use glam::{DVec3, Vec3};
-use precompute::conventions::{SPHERE, phi, pick, sin_cos_theta, theta, uniform_sphere, wrap_angle};
+use precompute::conventions::{SPHERE, direction, phi, pick, sin_cos_theta, theta, uniform_sphere, wrap_angle};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
 use precompute::density::DensityGrid;
 use precompute::fiber::{FiberHit, FiberModel, Longitudinal, SpreadHit};
 use precompute::spectrum::Rgb;
@@ -144,18 +146,30 @@ impl DualModel {
         1.0 / (c + (c * c - 1.0).max(0.0).sqrt())
     }
 
-    /// T_f / d_f through `n` fibers (a real count or the grid's mean, per `transmittance`), per
-    /// channel of a_f and a_b, and the count n' the spread sigma_f^2 = n' beta_f^2 uses: n, or for
-    /// a Poisson count given N >= 1 its conditional mean n / (1 - e^(-n)).
-    pub fn transmittance(self, a_f: Rgb, a_b: Rgb, n: f64) -> (Rgb, f64) {
+    /// T_f / d_f through `n` fibers (a real count or a mean, per `transmittance`), per channel of
+    /// a_f and a_b, and the count n' the spread sigma_f^2 = n' beta_f^2 uses: n, or for a Poisson
+    /// count given N >= 1 its conditional mean n / (1 - e^(-n)).
+    ///
+    /// `cosine` is the mean cosine g of the angle by which a fiber deflects the light it scatters
+    /// forward (1 for a count that already runs along the light's way, like the density grid's,
+    /// see [`crate::transmittance`]): after the first fiber, which the light meets on the straight
+    /// line, its way toward the point crosses 1 / g fibers for each fiber on the line, so each
+    /// later fiber transmits b = a^(1/g) (Poisson count only):
+    /// T = a E[b^(N - 1) | N >= 1] = (a / b) e^-n (e^(n b) - 1) / (1 - e^-n), which is the
+    /// straight-line mean for g = 1 and a n e^-n / (1 - e^-n) (one fiber passes light) as b -> 0.
+    pub fn transmittance(self, a_f: Rgb, a_b: Rgb, n: f64, cosine: Rgb) -> (Rgb, f64) {
         let a = a_f.zip(a_b, |f, b| self.per_fiber(f, b));
         match self.transmittance_kind() {
             Transmittance::Grid | Transmittance::Fibers => (a.map(|a| a.powf(n)), n),
-            // e^-n (e^(n a) - 1) / (1 - e^-n): in expm1 form for small n a (exact as n -> 0,
-            // where one fiber transmits a), else as written (no overflow for large n).
             Transmittance::Poisson if n > 0.0 => {
                 let (none, some) = ((-n).exp(), -(-n).exp_m1());
-                let t = a.map(|a| if n * a < 1.0 { none * (n * a).exp_m1() } else { (-n * (1.0 - a)).exp() - none });
+                let t = a.zip(cosine, |a, g| {
+                    let b = a.powf(1.0 / g.clamp(MIN_COSINE, 1.0));
+                    // In expm1 form for small n b (exact as n -> 0, where one fiber transmits a),
+                    // else as written (no overflow for large n).
+                    let passed = if n * b < 1.0 { none * (n * b).exp_m1() } else { (-n * (1.0 - b)).exp() - none };
+                    if b > 0.0 { a / b * passed } else { a * n * none }
+                });
                 (t / some, n / some)
             }
             Transmittance::Poisson => (a, 1.0),
@@ -189,26 +203,70 @@ impl DualModel {
     }
 }
 
+/// The least mean cosine of forward deflection taken (light deflected by more than 84 degrees
+/// on average would hardly progress through hair at all).
+pub const MIN_COSINE: f64 = 0.1;
+
+/// The mean cosine g of the angle between the way light travels before and after a fiber
+/// scatters it forward (design section 3: |phi| >= pi/2 from the light's azimuth), per channel,
+/// weighted by the energy scattered, over the offsets h and the inclinations of the fibers a ray
+/// crosses ([`crossing_mean`]'s cos^2 theta). By reciprocity, the fiber's sampler at "wo" = the
+/// direction toward the light draws the directions the light leaves in, with weights
+/// f |cos theta| / pdf that are the energy scattered there. Deterministic (stratified, a fixed
+/// random stream); sampling error about 0.1%.
+pub fn forward_cosine(fiber: &impl FiberModel) -> Rgb {
+    let (thetas, offsets, draws) = (48, 16, 32);
+    let mut rng = Pcg64Mcg::seed_from_u64(0x6f72_7761_7264);
+    let (mut sum, mut weight) = (Rgb::ZERO, Rgb::ZERO);
+    for i in 0..thetas {
+        let theta = -FRAC_PI_2 + PI * (i as f64 + 0.5) / thetas as f64;
+        let light = direction(theta, 0.0);
+        for j in 0..offsets {
+            let hit = fiber.at(light, -1.0 + 2.0 * (j as f64 + 0.5) / offsets as f64);
+            for k in 0..draws {
+                let u = [(k as f64 + rng.random::<f64>()) / draws as f64, rng.random(), rng.random(), rng.random()];
+                let Some(s) = hit.sample(u) else { continue };
+                if phi(s.wi).abs() < FRAC_PI_2 {
+                    continue;
+                }
+                let w = s.weight() * theta.cos().powi(2);
+                sum += w * (-light.dot(s.wi));
+                weight += w;
+            }
+        }
+    }
+    sum.zip(weight, |s, w| if w > 0.0 { (s / w).clamp(MIN_COSINE, 1.0) } else { 1.0 })
+}
+
 /// Below this predicted share of multiple scattering in the image, `auto` renders `single`.
 pub const AUTO_SINGLE_BELOW: f64 = 0.15;
 
-/// The share of a hair image's light that multiple scattering carries, as the fiber's tables
-/// predict it: the fiber's scattering albedo a_f + a_b (luminance), averaged over light
-/// inclinations weighted by cos^2 theta (directions uniform over the sphere, times the fiber's
-/// projected width). Deep in hair each fiber passes on that fraction of what reaches it, so the
-/// orders beyond the first carry about that share of the light (of the geometric series
-/// 1 + w + w^2 + ... = 1 / (1 - w), the terms after the first are the share w).
-pub fn predicted_multiple_share(tables: &Tables) -> f64 {
+/// The tables' row averaged over light inclinations weighted by cos^2 theta: over the fibers a
+/// straight ray crosses in hair of every orientation (directions uniform over the sphere relative
+/// to the fiber, times the fiber's projected width cos theta).
+pub fn crossing_mean(tables: &Tables) -> [Rgb; 9] {
     let n = 256;
-    let (mut sum, mut weight) = (0.0, 0.0);
+    let mut sum = [Rgb::ZERO; 9];
+    let mut weight = 0.0;
     for k in 0..n {
         let theta = -FRAC_PI_2 + PI * (k as f64 + 0.5) / n as f64;
-        let row = tables.at(theta);
         let w = theta.cos().powi(2);
-        sum += w * (row[Quantity::AF as usize] + row[Quantity::AB as usize]).luminance();
+        for (s, v) in sum.iter_mut().zip(tables.at(theta)) {
+            *s += v * w;
+        }
         weight += w;
     }
-    sum / weight
+    sum.map(|s| s * (1.0 / weight))
+}
+
+/// The share of a hair image's light that multiple scattering carries, as the fiber's tables
+/// predict it: the fiber's scattering albedo a_f + a_b (luminance) over the fibers crossed
+/// ([`crossing_mean`]). Deep in hair each fiber passes on that fraction of what reaches it, so
+/// the orders beyond the first carry about that share of the light (of the geometric series
+/// 1 + w + w^2 + ... = 1 / (1 - w), the terms after the first are the share w).
+pub fn predicted_multiple_share(tables: &Tables) -> f64 {
+    let row = crossing_mean(tables);
+    (row[Quantity::AF as usize] + row[Quantity::AB as usize]).luminance()
 }
 
 /// The `dual` integrator: the scene, the fiber, its tables and the hair's density grid.
@@ -228,6 +286,12 @@ pub struct DualScattering<'a, M> {
     pub shadows: Shadows<'a>,
     /// Light samples (each with a sample of F's sampler) per camera hit, stratified together.
     pub light_samples: u32,
+    /// The tables over the fibers a ray crosses ([`crossing_mean`]): what light passing through
+    /// hair onto a mesh meets.
+    pub crossing: [Rgb; 9],
+    /// The fiber's mean cosine of forward deflection ([`forward_cosine`]), for the lookup's
+    /// straight-line counts.
+    pub deflection: Rgb,
 }
 
 /// How `dual` finds the fibers between a shading point and a light (`dual.shadows`).
@@ -305,11 +369,10 @@ struct Shading<'a, M: FiberModel + 'a> {
     /// The inclination and azimuth of the direction toward the camera (local).
     theta_o: f64,
     phi_o: f64,
-    h: f64,
-    /// Origin of shadow rays and grid marches.
+    /// Origin of shadow rays, grid marches and lookups.
     from: Vec3,
-    /// The fiber segment hit, for the lookup.
-    segment: u32,
+    /// The fiber's radius there, for the lookup (world units).
+    radius: f64,
     /// Share of the uniform sphere in the `importance` sampler.
     uniform: f64,
 }
@@ -323,7 +386,7 @@ where
         let uniform = DEFENSIVE * dual.d_f.max(dual.d_b);
         let (theta_o, phi_o) = (theta(wo), phi(wo));
         let fiber = dual.fiber.at(wo, h);
-        Shading { dual, fiber, frame, theta_o, phi_o, h, from: spawn_point(hit), segment: hit.segment, uniform }
+        Shading { dual, fiber, frame, theta_o, phi_o, from: spawn_point(hit), radius: hit.radius as f64, uniform }
     }
 
     /// F(wo, wi) toward the light direction `wi` (local) = `d` (world), split into its terms.
@@ -332,10 +395,16 @@ where
         let (sin_i, cos_i) = sin_cos_theta(wi);
         let (theta_i, phi_i) = (sin_i.asin(), phi(wi));
         let dphi = wrap_angle(phi_i - self.phi_o).abs();
-        // The segment's lit fraction toward the light (Zinke et al. 2008's directFraction) weighs
-        // F_direct against F_scatter of its mean count n. Without an entry, rays.
+        // The lit fraction toward the light (Zinke et al. 2008's directFraction) weighs F_direct
+        // against F_scatter of the mean count n. Without an entry, rays.
         let entry = match dual.shadows {
-            Shadows::Lookup(lookup) => lookup.toward(self.segment, self.h, d, theta_i, phi_i),
+            Shadows::Lookup(lookup) => {
+                // A mesh in the way (the head) is opaque; the maps hold the hair alone.
+                if !dual.world.meshes.is_empty() && dual.world.meshes.occluded(self.from, d.as_vec3(), f32::INFINITY) {
+                    return Split::default();
+                }
+                lookup.toward(self.from.as_dvec3(), self.radius, d)
+            }
             Shadows::Rays => None,
         };
         // Fully lit from the forward half (no backscatter there): F_direct is f_s alone, and the
@@ -410,7 +479,7 @@ where
         }
         let (model, row) = (dual.model, &inc.row);
         let a_f = row[Quantity::AF as usize];
-        let (t_f, mean_n) = model.transmittance(a_f, row[Quantity::AB as usize], n);
+        let (t_f, mean_n) = model.transmittance(a_f, row[Quantity::AB as usize], n, dual.cosine());
         let var_f = Rgb(row[Quantity::BetaF as usize].0.map(|b| mean_n * b * b));
         let scale = t_f * if model.d_f_twice() { dual.d_f * dual.d_f } else { dual.d_f };
         let mut split = Split { forward: scale * f_spread(var_f * 4.0), ..Split::default() };
@@ -500,19 +569,58 @@ where
 }
 
 impl<M> DualScattering<'_, M> {
-    /// A mesh the camera sees (the head): direct light only, as `single` shades it, with shadow
-    /// rays through the real strands; the light that hair scatters onto it is not modeled (README,
-    /// "Meshes"). The same light samples per hit as a fiber hit, each with a cosine sample.
+    /// The mean cosine of forward deflection that the counts want: the lookup's run along the
+    /// straight line (they match the real crossings), the density grid's are measured to run
+    /// about 30% above them already (README, "The forward-transmittance lookup").
+    fn cosine(&self) -> Rgb {
+        match self.shadows {
+            Shadows::Lookup(_) => self.deflection,
+            Shadows::Rays => Rgb::ONE,
+        }
+    }
+
+    /// The share of a light's radiance from direction `d` (unit, world) that reaches the mesh
+    /// point `from` through the hair: what passes between the fibers, plus what the fibers in the
+    /// way pass on forward (d_f T_f of the mean count, with a_f over the fibers a ray crosses:
+    /// the skin's diffuse response does not see where within the forward spread it arrives).
+    /// A mesh in the way blocks it.
+    fn through_hair(&self, from: Vec3, d: DVec3) -> Rgb {
+        if self.world.meshes.occluded(from, d.as_vec3(), f32::INFINITY) {
+            return Rgb::ZERO;
+        }
+        let (lit, n) = match self.shadows {
+            Shadows::Lookup(lookup) => lookup.toward(from.as_dvec3(), 0.0, d).unwrap_or((1.0, 0.0)),
+            Shadows::Rays => match self.world.fibers.occluded(from, d.as_vec3(), f32::INFINITY) {
+                false => (1.0, 0.0),
+                true => (0.0, self.grid.fibers_crossed(from.as_dvec3(), d, f64::INFINITY)),
+            },
+        };
+        if lit >= 1.0 || self.d_f == 0.0 {
+            return Rgb::splat(lit);
+        }
+        let row = &self.crossing;
+        let t_f = self.model.transmittance(row[Quantity::AF as usize], row[Quantity::AB as usize], n, self.cosine()).0;
+        Rgb::splat(lit) + t_f * ((1.0 - lit) * self.d_f)
+    }
+
+    /// A mesh the camera sees (the head): direct light, arriving through the hair as
+    /// [`DualScattering::through_hair`] says; the light that hair scatters back onto it is not
+    /// modeled (README, "Meshes"). The same light samples per hit as a fiber hit, each with a
+    /// cosine sample.
     fn mesh(&self, hit: &MeshHit, sampler: &mut impl Sampler) -> CameraSample {
         let from = meshes::spawn_point(hit);
         let mut radiance = Rgb::ZERO;
         let k = self.light_samples;
         sampler.split(k, &mut |sampler| {
-            sample_lights(self.lights, sampler, |s| radiance += diffuse_light(self.world, s, hit, from));
+            sample_lights(self.lights, sampler, |s| {
+                let cos = s.wi.dot(hit.normal.as_dvec3());
+                if cos > 0.0 {
+                    let f = hit.albedo * (cos * FRAC_1_PI);
+                    radiance += f * self.through_hair(from, s.wi) * light_weight(s, || cos * FRAC_1_PI);
+                }
+            });
             let (d, pdf) = sample_cosine(hit.normal.as_dvec3(), sampler.get_2d());
-            if !self.world.occluded(from, d.as_vec3(), f32::INFINITY) {
-                radiance += hit.albedo * seen_lights(self.lights, d, pdf);
-            }
+            radiance += hit.albedo * self.through_hair(from, d) * seen_lights(self.lights, d, pdf);
         });
         CameraSample { radiance: radiance * (1.0 / k as f64), hit_hair: false, terms: [Rgb::ZERO; 4] }
     }
@@ -558,8 +666,7 @@ where
 
 #[cfg(test)]
 mod tests {
-    use super::DualModel;
-    use precompute::spectrum::Rgb;
+    use super::*;
 
     /// P(N = k) for a Poisson count of mean n.
     fn poisson(n: f64, k: u32) -> f64 {
@@ -573,19 +680,71 @@ mod tests {
         for n in [0.05f64, 0.7, 3.0, 12.0, 40.0] {
             for a in [0.0f64, 0.04, 0.35, 0.72, 1.0] {
                 let direct = (1..400).map(|k| poisson(n, k) * a.powi(k as i32)).sum::<f64>() / (1.0 - (-n).exp());
-                let t = DualModel::Poisson.transmittance(Rgb::splat(a), Rgb::splat(0.1), n).0.0[0];
+                let t = DualModel::Poisson.transmittance(Rgb::splat(a), Rgb::splat(0.1), n, Rgb::ONE).0.0[0];
                 assert!((t - direct).abs() < 1e-12 * direct.max(1e-300) + 1e-15, "n {n}, a {a}: {t} vs {direct}");
             }
             let mean = (1..400).map(|k| k as f64 * poisson(n, k)).sum::<f64>() / (1.0 - (-n).exp());
-            let mean_count = DualModel::Poisson.transmittance(Rgb::splat(0.5), Rgb::splat(0.1), n).1;
+            let mean_count = DualModel::Poisson.transmittance(Rgb::splat(0.5), Rgb::splat(0.1), n, Rgb::ONE).1;
             assert!((mean_count - mean).abs() < 1e-10 * mean);
         }
-        let t = |model: DualModel, a: f64, n: f64| model.transmittance(Rgb::splat(a), Rgb::splat(0.1), n).0.0[0];
+        let t = |model: DualModel, a: f64, n: f64| model.transmittance(Rgb::splat(a), Rgb::splat(0.1), n, Rgb::ONE).0.0[0];
         assert!((t(DualModel::Poisson, 0.6, 1e-9) - 0.6).abs() < 1e-8);
         assert!((t(DualModel::Poisson, 0.6, 0.0) - 0.6).abs() < 1e-15);
         let deep = t(DualModel::Poisson, 0.9, 1000.0);
         assert!((deep / (-100.0f64).exp() - 1.0).abs() < 1e-9, "{deep}");
         assert_eq!(t(DualModel::Zinke2008, 0.5, 3.0), 0.125);
+    }
+
+    #[test]
+    fn deflected_transmittance_is_the_mean_over_counts() {
+        // T = a E[b^(N-1) | N >= 1], b = a^(1/g), against the sum over counts; g = 1 is the
+        // straight-line mean, and one fiber in the way (n -> 0) transmits a whatever g.
+        for n in [0.05f64, 0.7, 3.0, 12.0, 40.0] {
+            for (a, g) in [(0.04f64, 0.5f64), (0.35, 0.8), (0.72, 0.9), (0.9, 0.3), (0.0, 0.7)] {
+                let b = a.powf(1.0 / g);
+                let direct =
+                    (1..400).map(|k| poisson(n, k) * a * b.powi(k as i32 - 1)).sum::<f64>() / (1.0 - (-n).exp());
+                let t = DualModel::Poisson.transmittance(Rgb::splat(a), Rgb::splat(0.1), n, Rgb::splat(g)).0.0[0];
+                assert!((t - direct).abs() < 1e-12 * direct.max(1e-300) + 1e-15, "n {n}, a {a}, g {g}: {t} vs {direct}");
+            }
+        }
+        let t = DualModel::Poisson.transmittance(Rgb::splat(0.6), Rgb::splat(0.1), 1e-9, Rgb::splat(0.4)).0.0[0];
+        assert!((t - 0.6).abs() < 1e-8);
+    }
+
+    #[test]
+    fn forward_cosine_agrees_with_uniform_sampling() {
+        // The same mean by another estimator: directions uniform over the sphere weighted by the
+        // fiber's value f |cos theta| (not its sampler), on a smooth and a rough fiber.
+        use precompute::fiber::{Chiang, FiberHit, FiberModel, FiberParams};
+        for params in [r#"{"beta_m": 0.3, "beta_n": 0.3}"#, r#"{"beta_m": 0.6, "beta_n": 0.7}"#] {
+            let params: FiberParams = serde_json::from_str(params).unwrap();
+            let fiber = Chiang::new(&params).unwrap();
+            let g = super::forward_cosine(&fiber);
+            let mut rng = Pcg64Mcg::seed_from_u64(5);
+            let (mut sum, mut weight) = (Rgb::ZERO, Rgb::ZERO);
+            for i in 0..48 {
+                let theta = -FRAC_PI_2 + PI * (i as f64 + 0.5) / 48.0;
+                let light = direction(theta, 0.0);
+                for j in 0..16 {
+                    let hit = fiber.at(light, -1.0 + 2.0 * (j as f64 + 0.5) / 16.0);
+                    for _ in 0..2000 {
+                        let wi = uniform_sphere(rng.random());
+                        if phi(wi).abs() >= FRAC_PI_2 {
+                            let w = hit.eval(wi) * theta.cos().powi(2);
+                            sum += w * (-light.dot(wi));
+                            weight += w;
+                        }
+                    }
+                }
+            }
+            for c in 0..3 {
+                let want = sum.0[c] / weight.0[c];
+                assert!((g.0[c] - want).abs() < 0.01, "{params:?} channel {c}: {} vs {want}", g.0[c]);
+                assert!(g.0[c] > 0.3 && g.0[c] < 1.0, "{}", g.0[c]);
+            }
+            println!("{params:?}: g {:?}", g.0);
+        }
     }
 
     #[test]

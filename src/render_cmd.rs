@@ -1,7 +1,7 @@
 //! `dualhair render`: renders a scene file to EXR and PNG.
 
 use crate::cache::{Cache, Fnv, spinner};
-use crate::dual::{AUTO_SINGLE_BELOW, DualModel, DualScattering, Shadows, predicted_multiple_share};
+use crate::dual::{AUTO_SINGLE_BELOW, DualModel, DualScattering, Shadows, crossing_mean, forward_cosine, predicted_multiple_share};
 use crate::film::Film;
 use crate::integrator::PathTracer;
 use crate::interrupt::{self, Interrupted};
@@ -178,7 +178,7 @@ impl DualInputs {
             None => cache.density(&scene.strands, d.voxel_size)?,
         };
         let lookup = match d.shadows {
-            ShadowMode::Lookup => Some(cache.lookup(scene, &grid, progress)?),
+            ShadowMode::Lookup => Some(cache.lookup(scene, progress)?),
             ShadowMode::Rays => None,
         };
         Ok(Some(DualInputs { tables, grid, lookup }))
@@ -251,6 +251,8 @@ pub fn render_into(
                 None => Shadows::Rays,
             },
             light_samples: d.light_samples(&scene.lights),
+            crossing: crossing_mean(&inputs.tables),
+            deflection: forward_cosine(&fiber),
         };
         return Ok(render(&scene.camera, &dual, seed, sums, end, progress));
     }

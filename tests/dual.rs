@@ -8,7 +8,6 @@ use dualhair::dual::DualModel;
 use dualhair::film::Film;
 use dualhair::scene::{DualSpec, IntegratorKind, Sampling, ShadowMode};
 use dualhair::transmittance::LookupSettings;
-use precompute::density::DensityGrid;
 use precompute::fiber::FiberParams;
 
 mod common;
@@ -167,28 +166,35 @@ fn precomputed_inputs_are_cached_and_reused() {
     assert_eq!(files().len(), n + 1);
     assert!(((finer.total_length() - grid.total_length()) / grid.total_length()).abs() < 1e-3);
 
-    // The forward-transmittance lookup: reused for the same hair, camera, lights and grid; rebuilt
-    // when any of them changes; a damaged entry is rebuilt, not trusted.
+    // The forward-transmittance lookup: its sun and sky entries reused for the same hair and
+    // lights whatever the camera, meshes or voxel size; the sun's rebuilt (and only it) when the
+    // sun moves; a damaged entry is rebuilt, not trusted.
     let mut file = bundled("brown", 16, 1);
     file.lights.sun = Some(serde_json::from_str(r#"{"direction": [0.3, -1, 0.5], "irradiance": 2}"#).unwrap());
-    file.dual.lookup = LookupSettings { env_theta: 4, env_phi: 4, ..LookupSettings::default() };
+    file.dual.lookup = LookupSettings { env_grid: 2, env_texel: 8.0, sun_texel: 4.0 };
     let scene = file.build().unwrap();
-    let lookup = |scene: &dualhair::scene::Scene, grid: &DensityGrid| cache.lookup(scene, grid, false).unwrap();
-    let first = lookup(&scene, &grid);
+    let lookup = |scene: &dualhair::scene::Scene| cache.lookup(scene, false).unwrap();
+    let first = lookup(&scene);
     let n = files().len();
-    assert_eq!(lookup(&scene, &grid), first);
+    assert_eq!(lookup(&scene), first);
     assert_eq!(files().len(), n, "unchanged inputs must reuse the cached lookup");
-    let entry = files().into_iter().find(|f| f.0.to_string_lossy().starts_with("lookup-")).unwrap();
+    let entry = files().into_iter().find(|f| f.0.to_string_lossy().starts_with("lookup-sun-")).unwrap();
     let bytes = std::fs::read(dir.path().join(&entry.0)).unwrap();
     std::fs::write(dir.path().join(&entry.0), &bytes[..bytes.len() / 2]).unwrap();
-    assert_eq!(lookup(&scene, &grid), first, "a truncated entry must be rebuilt");
-    lookup(&scene, &finer);
-    assert_eq!(files().len(), n + 1, "another voxel size must rebuild the lookup");
+    assert_eq!(lookup(&scene), first, "a truncated entry must be rebuilt");
+    let before = files();
+    let mut moved_camera = file.clone();
+    moved_camera.camera.position = Some([1.0, -3.0, 0.5]);
+    moved_camera.camera.width = 20;
+    moved_camera.dual.voxel_size = Some(0.5 * grid.voxel_size);
+    assert_eq!(lookup(&moved_camera.build().unwrap()), first, "the lookup does not depend on the camera");
+    let voxels = files().len() - before.len();
+    assert_eq!(voxels, 1, "only the finer density grid is new");
+    assert!(before.iter().all(|f| files().contains(f)), "moving the camera must reuse the cached lookup, unwritten");
     file.lights.sun = Some(serde_json::from_str(r#"{"direction": [0.3, 1, 0.5], "irradiance": 2}"#).unwrap());
-    let moved = lookup(&file.build().unwrap(), &grid);
-    assert_eq!(files().len(), n + 2, "another sun must rebuild the lookup");
+    let moved = lookup(&file.build().unwrap());
     assert_ne!(moved, first);
-    file.camera.width = 20;
-    lookup(&file.build().unwrap(), &grid);
-    assert_eq!(files().len(), n + 3, "another camera must rebuild the lookup");
+    let new: Vec<_> = files().into_iter().map(|f| f.0.to_string_lossy().into_owned()).collect();
+    assert_eq!(new.len(), n + 2, "another sun must rebuild the sun's map: {new:?}");
+    assert_eq!(new.iter().filter(|f| f.starts_with("lookup-sky-")).count(), 1, "the sky's maps stay: {new:?}");
 }

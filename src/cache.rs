@@ -137,7 +137,8 @@ impl Cache {
         };
         let env = match &lights.environment {
             Some(_) => {
-                let h = hair.bytes(b"env").bytes(&settings.env_texel.to_le_bytes()).bytes(&settings.env_grid.to_le_bytes());
+                let h =
+                    hair.bytes(b"env").bytes(&settings.env_texel.to_le_bytes()).bytes(&settings.env_grid.to_le_bytes());
                 let path = self.entry(format!("lookup-sky-{:016x}.bin", h.0))?;
                 let build = || ForwardLookup::environment(strands, settings, progress);
                 Some(self.lookup_entry(&path, "the sky", progress, build)?)

@@ -51,8 +51,8 @@
 
 use crate::fibers::Hit;
 use crate::integrator::{
-    CameraSample, Frame, Integrator, Term, Terms, background, hit_frame, light_weight, sample_cosine,
-    sample_lights, seen_lights, spawn_point,
+    CameraSample, Frame, Integrator, Term, Terms, background, hit_frame, light_weight, sample_cosine, sample_lights,
+    seen_lights, spawn_point,
 };
 use crate::light::{LightSample, Lights};
 use crate::meshes::{self, MeshHit};
@@ -62,12 +62,12 @@ use crate::transmittance::ForwardLookup;
 use crate::world::{Surface, World};
 use glam::{DVec3, Vec3};
 use precompute::conventions::{SPHERE, direction, phi, pick, sin_cos_theta, theta, uniform_sphere, wrap_angle};
-use rand::{Rng, SeedableRng};
-use rand_pcg::Pcg64Mcg;
 use precompute::density::DensityGrid;
 use precompute::fiber::{FiberHit, FiberModel, Longitudinal, SpreadHit};
 use precompute::spectrum::Rgb;
 use precompute::tables::{Quantity, Tables};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
 use serde::Deserialize;
 use std::f64::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 
@@ -687,7 +687,8 @@ mod tests {
             let mean_count = DualModel::Poisson.transmittance(Rgb::splat(0.5), Rgb::splat(0.1), n, Rgb::ONE).1;
             assert!((mean_count - mean).abs() < 1e-10 * mean);
         }
-        let t = |model: DualModel, a: f64, n: f64| model.transmittance(Rgb::splat(a), Rgb::splat(0.1), n, Rgb::ONE).0.0[0];
+        let t =
+            |model: DualModel, a: f64, n: f64| model.transmittance(Rgb::splat(a), Rgb::splat(0.1), n, Rgb::ONE).0.0[0];
         assert!((t(DualModel::Poisson, 0.6, 1e-9) - 0.6).abs() < 1e-8);
         assert!((t(DualModel::Poisson, 0.6, 0.0) - 0.6).abs() < 1e-15);
         let deep = t(DualModel::Poisson, 0.9, 1000.0);
@@ -705,7 +706,10 @@ mod tests {
                 let direct =
                     (1..400).map(|k| poisson(n, k) * a * b.powi(k as i32 - 1)).sum::<f64>() / (1.0 - (-n).exp());
                 let t = DualModel::Poisson.transmittance(Rgb::splat(a), Rgb::splat(0.1), n, Rgb::splat(g)).0.0[0];
-                assert!((t - direct).abs() < 1e-12 * direct.max(1e-300) + 1e-15, "n {n}, a {a}, g {g}: {t} vs {direct}");
+                assert!(
+                    (t - direct).abs() < 1e-12 * direct.max(1e-300) + 1e-15,
+                    "n {n}, a {a}, g {g}: {t} vs {direct}"
+                );
             }
         }
         let t = DualModel::Poisson.transmittance(Rgb::splat(0.6), Rgb::splat(0.1), 1e-9, Rgb::splat(0.4)).0.0[0];

@@ -1,7 +1,9 @@
 //! `dualhair render`: renders a scene file to EXR and PNG.
 
 use crate::cache::{Cache, Fnv, spinner};
-use crate::dual::{AUTO_SINGLE_BELOW, DualModel, DualScattering, Shadows, crossing_mean, forward_cosine, predicted_multiple_share};
+use crate::dual::{
+    AUTO_SINGLE_BELOW, DualModel, DualScattering, Shadows, crossing_mean, forward_cosine, predicted_multiple_share,
+};
 use crate::film::Film;
 use crate::integrator::PathTracer;
 use crate::interrupt::{self, Interrupted};
@@ -55,7 +57,7 @@ pub struct RenderArgs {
     /// Dual-scattering model (dual integrator; default: the scene's, else two_stream).
     #[arg(long, value_enum)]
     pub dual_model: Option<DualModel>,
-    /// Shadows in the dual integrator (default: the scene's, else lookup).
+    /// Shadows in the dual integrator (default: the scene's, else rays).
     #[arg(long, value_enum)]
     pub shadows: Option<ShadowMode>,
     /// Light samples per camera hit (dual integrator; default: the scene's, else 4 under an

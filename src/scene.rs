@@ -237,7 +237,7 @@ pub struct DualSpec {
     /// voxelize the hair.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub density_grid: Option<PathBuf>,
-    /// Shadow rays or the precomputed forward-transmittance lookup (default).
+    /// Shadow rays (default) or the precomputed forward-transmittance lookup.
     pub shadows: ShadowMode,
     /// The lookup's resolutions.
     pub lookup: LookupSettings,
@@ -267,9 +267,11 @@ impl DualSpec {
 #[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum ShadowMode {
-    /// Shadow rays through the real strands and grid marches: crisp hair-on-hair shadows.
+    /// Shadow rays through the real strands and grid marches: crisp hair-on-hair shadows, and
+    /// the closest to `path` on the accuracy table (the default).
     Rays,
-    /// The precomputed forward-transmittance lookup: soft segment-scale shadows, faster.
+    /// The forward-transmittance lookup: deep opacity maps toward the lights, built once per
+    /// hair and light (seconds), soft shadows at a few fiber widths.
     Lookup,
 }
 
@@ -281,7 +283,7 @@ impl Default for DualSpec {
             model: DualModel::TwoStream,
             voxel_size: None,
             density_grid: None,
-            shadows: ShadowMode::Lookup,
+            shadows: ShadowMode::Rays,
             lookup: LookupSettings::default(),
             light_samples: None,
         }

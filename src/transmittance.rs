@@ -5,14 +5,15 @@
 //! the sun's map alone.
 //!
 //! A map looks along a light direction (orthographic, texels of a fixed size in the plane across
-//! it). Each texel keeps the depth z0 of the first fiber met there and the cumulative count of
-//! fibers crossed at depths z0 + k fiber widths, k = 1, 2, 4, ..., 2^(LAYERS-1) (Yuksel and
-//! Keyser 2008, "Deep opacity maps": layers from each texel's first hit, so the outermost fibers,
-//! the ones a camera sees lit, are resolved; Kim and Neumann 2001 accumulate such counts in
-//! fixed slices). A fiber of radius r crossing a texel of side s along a length l (projected
-//! across the light) adds 2 r l / s^2 to the expected count of a ray through the texel: the
-//! density grid's count (design section 4) at the scale of one texel. Between layers the count
-//! is linear in depth, across texels bilinear.
+//! it). Each texel keeps the depth of the first fiber met there and of the last, and the
+//! cumulative count of fibers crossed at knots behind the first (0.5, 0.71, 1, ..., 8, 16, 32, 64
+//! fiber widths) and before the last (0.5, 1, 2 widths; Yuksel and Keyser 2008, "Deep opacity maps":
+//! layers from each texel's first hit, so the outermost fibers, the ones a camera sees lit, are
+//! resolved; here the innermost too, which a back light's camera sees; Kim and Neumann 2001
+//! accumulate such counts in fixed slices). A fiber of radius r crossing a texel of side s along
+//! a length l (projected across the light) adds 2 r l / s^2 to the expected count of a ray
+//! through the texel: the density grid's count (design section 4) at the scale of one texel.
+//! Between knots the count is linear in depth, across texels bilinear.
 //!
 //! With fibers placed at random across a texel the count N along a ray is Poisson, so the lit
 //! fraction is P(N = 0) = e^-n, and `dual`'s Poisson transmittance (given N >= 1) takes the same
@@ -34,6 +35,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use precompute::strands::Strands;
 use rayon::prelude::*;
 use serde::Deserialize;
+use std::f64::consts::{FRAC_1_SQRT_2, SQRT_2};
 use std::io::Write;
 
 /// Resolutions of the lookup (scene file `dual.lookup`), chosen by measured error against
@@ -52,32 +54,52 @@ pub struct LookupSettings {
 
 impl Default for LookupSettings {
     fn default() -> Self {
-        LookupSettings { sun_texel: 2.0, env_texel: 2.0, env_grid: 5 }
+        LookupSettings { sun_texel: 2.0, env_texel: 3.0, env_grid: 7 }
     }
 }
 
 impl LookupSettings {
     pub fn validate(&self) -> anyhow::Result<()> {
         for (name, v) in [("sun_texel", self.sun_texel), ("env_texel", self.env_texel)] {
-            ensure!(v.is_finite() && (0.25..=1024.0).contains(&v), "dual.lookup.{name} must be in 0.25..=1024 fiber widths, got {v}");
+            ensure!(
+                v.is_finite() && (0.25..=1024.0).contains(&v),
+                "dual.lookup.{name} must be in 0.25..=1024 fiber widths, got {v}"
+            );
         }
         ensure!((2..=32).contains(&self.env_grid), "dual.lookup.env_grid must be in 2..=32, got {}", self.env_grid);
         Ok(())
     }
 }
 
-/// Depth layers per texel: layer k ends 2^((k - 2) / 2) fiber widths behind the texel's first
-/// fiber (0.5, 0.71, 1, 1.41, ..., 22.6), or at its last fiber where that comes first; the last
-/// layer always ends at the last fiber. A ratio of
-/// sqrt 2 from one knot to the next, and a last knot at the last fiber, keep the count's linear
-/// interpolation within a layer close where a back light's camera looks: at a texel's far end.
-const LAYERS: usize = 13;
+/// Knots of a texel's count, in fiber widths behind its first fiber, with S its last fiber's
+/// depth there: `FRONT_KNOTS` from the first fiber (a ratio of sqrt 2 up to 8 widths, then 2),
+/// where a front light's camera looks and where the outermost fibers decide what is lit;
+/// `BACK_KNOTS` before the last, S - 0.5, S - 1, S - 2, where a back light's camera looks; and S
+/// itself. Between knots the count is linear in depth. Knots at both ends keep both outer layers
+/// resolved however much hair or empty space (a head's hollow) lies between.
+const FRONT_KNOTS: [f64; 12] =
+    [0.5, FRAC_1_SQRT_2, 1.0, SQRT_2, 2.0, 2.0 * SQRT_2, 4.0, 4.0 * SQRT_2, 8.0, 16.0, 32.0, 64.0];
+const BACK_KNOTS: [f64; 3] = [0.5, 1.0, 2.0];
+const FRONT: usize = FRONT_KNOTS.len();
+const BACK: usize = BACK_KNOTS.len();
+const KNOTS: usize = FRONT + BACK + 1;
+
+/// The front knots at or beyond offset `o`: those from the first with a depth above `o`.
+fn front_from(o: f64) -> usize {
+    FRONT_KNOTS.iter().position(|&k| k > o).unwrap_or(FRONT)
+}
+
+/// The back knots beyond offset o, d = S - o before the last fiber: those with S - k > o, which
+/// is k < d.
+fn back_before(d: f64) -> usize {
+    BACK_KNOTS.iter().position(|&k| k >= d).unwrap_or(BACK)
+}
 
 /// Texels per side of a tile: only tiles that hair touches are stored.
 const TILE: usize = 4;
 
 /// The most texels a map may span (before tiles drop the empty ones): a coarser texel is taken
-/// beyond, so that a map of a sprawling groom stays within memory (about 30 bytes a texel).
+/// beyond, so that a map of a sprawling groom stays within memory (16 bytes a texel).
 const MAX_TEXELS: f64 = 16e6;
 
 /// The cumulative count on a log scale in a byte: q = round(24 log2(1 + n)), steps of 2.9% in
@@ -89,21 +111,6 @@ fn quantize(n: f64) -> u8 {
 fn dequantize(q: u8) -> f64 {
     static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
     TABLE.get_or_init(|| std::array::from_fn(|q| ((q as f64 / 24.0).exp2() - 1.0) as f32))[q as usize] as f64
-}
-
-/// The depth of layer k's end behind the first fiber, in fiber widths, before the last fiber cuts
-/// it.
-fn knot(k: usize) -> f64 {
-    (((k as i32 - 2) as f64) * 0.5).exp2()
-}
-
-/// The layer whose span (knot(k - 1), knot(k)] holds an offset of `o` > 0 fiber widths (layer 0
-/// from 0): ceil(2 log2 o) + 2, from the exponent of o^2 (one instruction, no logarithm).
-fn layer_of(o: f64) -> usize {
-    let bits = (o * o).to_bits();
-    let exponent = ((bits >> 52) & 0x7ff) as i64 - 1023;
-    let ceil = exponent + (bits & ((1 << 52) - 1) != 0) as i64;
-    (ceil + 2).clamp(0, LAYERS as i64 - 1) as usize
 }
 
 /// The hair seen from one light direction.
@@ -126,10 +133,10 @@ struct DepthMap {
     /// Per stored texel (`TILE`^2 per tile, row by row in it): its first fiber's depth behind
     /// its tile's base in steps of `FIRST_STEP` fiber widths (`u16::MAX` where none), how far
     /// behind that its last fiber lies (`span_widths`) and the quantized cumulative count at each
-    /// layer's end.
+    /// knot ([`FRONT`] ones, then [`BACK`] ones, then the last fiber).
     first: Vec<u16>,
     span: Vec<u8>,
-    counts: Vec<[u8; LAYERS]>,
+    counts: Vec<[u8; KNOTS]>,
 }
 
 /// The step of a texel's first depth, in fiber widths.
@@ -306,45 +313,67 @@ impl DepthMap {
         map.tiles = tiles;
         let texels_stored = stored as usize * TILE * TILE;
         map.bases = vec![f32::INFINITY; stored as usize];
-        for t in 0..texels {
+        for (t, &z) in first.iter().enumerate() {
             if let Some(slot) = map.slot(t % map.size[0], t / map.size[0]) {
-                map.bases[slot / (TILE * TILE)] = map.bases[slot / (TILE * TILE)].min(first[t]);
+                map.bases[slot / (TILE * TILE)] = map.bases[slot / (TILE * TILE)].min(z);
             }
         }
-        // Each texel's first depth as stored: rounded down (its own fibers stay behind it).
+        // Each texel's first depth as stored, rounded down (its own fibers stay behind it), and
+        // its span as stored, rounded up: what the knots are placed by, here as in `count_at`.
         (map.first, map.span) = (vec![u16::MAX; texels_stored], vec![0; texels_stored]);
-        for t in 0..texels {
+        let mut spans = last;
+        for (t, (z, span)) in first.iter_mut().zip(spans.iter_mut()).enumerate() {
             if let Some(slot) = map.slot(t % map.size[0], t / map.size[0])
-                && first[t].is_finite()
+                && z.is_finite()
             {
                 let base = map.bases[slot / (TILE * TILE)];
-                map.first[slot] = ((first[t] - base) as f64 / fiber_width / FIRST_STEP).floor().min(65534.0) as u16;
-                first[t] = (base as f64 + map.first[slot] as f64 * FIRST_STEP * fiber_width) as f32;
-                map.span[slot] = span_byte((last[t] - first[t]) as f64 / fiber_width);
+                map.first[slot] = ((*z - base) as f64 / fiber_width / FIRST_STEP).floor().min(65534.0) as u16;
+                *z = (base as f64 + map.first[slot] as f64 * FIRST_STEP * fiber_width) as f32;
+                map.span[slot] = span_byte((*span - *z) as f64 / fiber_width);
+                *span = span_widths(map.span[slot]) as f32;
             }
         }
-        drop(last);
-        // Pass 2: counts per layer behind each texel's first fiber, shared by overlap.
-        let mut layers = vec![[0f32; LAYERS]; texels];
+        // Pass 2: each splat's count, shared by overlap, at the first front knot beyond it and at
+        // the last back knot beyond it (the knots' cumulative counts are then sums from the front
+        // and from the back), and in all at the last fiber.
+        let mut knots = vec![[0f32; KNOTS]; texels];
         let per_width = (1.0 / fiber_width) as f32;
         map.splats(strands, &points, |s| {
             for (t, w) in map.footprint(&s) {
                 if w > 0.0 {
-                    let o = (s.depth - first[t]) * per_width;
-                    layers[t][if o > 0.0 { layer_of(o as f64) } else { 0 }] += w * s.count;
+                    let c = w * s.count;
+                    let o = ((s.depth - first[t]) * per_width).max(0.0) as f64;
+                    let k = &mut knots[t];
+                    let front = front_from(o);
+                    if front < FRONT {
+                        k[front] += c;
+                    }
+                    let back = back_before(spans[t] as f64 - o);
+                    if back > 0 {
+                        k[FRONT + back - 1] += c;
+                    }
+                    k[KNOTS - 1] += c;
                 }
             }
         });
-        map.counts = vec![[0; LAYERS]; texels_stored];
-        for (t, layers) in layers.iter().enumerate() {
+        drop(spans);
+        map.counts = vec![[0; KNOTS]; texels_stored];
+        for (t, k) in knots.iter().enumerate() {
             if let Some(slot) = map.slot(t % map.size[0], t / map.size[0])
                 && first[t].is_finite()
             {
+                let counts = &mut map.counts[slot];
                 let mut sum = 0.0;
-                map.counts[slot] = layers.map(|c| {
-                    sum += c as f64;
-                    quantize(sum)
-                });
+                for i in 0..FRONT {
+                    sum += k[i] as f64;
+                    counts[i] = quantize(sum);
+                }
+                sum = 0.0;
+                for i in (0..BACK).rev() {
+                    sum += k[FRONT + i] as f64;
+                    counts[FRONT + i] = quantize(sum);
+                }
+                counts[KNOTS - 1] = quantize(k[KNOTS - 1] as f64);
             }
         }
         map
@@ -362,17 +391,36 @@ impl DepthMap {
         }
         let (counts, span) = (&self.counts[slot], span_widths(self.span[slot]));
         if o >= span {
-            return dequantize(counts[LAYERS - 1]);
+            return dequantize(counts[KNOTS - 1]);
         }
-        let k = layer_of(o);
-        let (lo, c0) = if k == 0 { (0.0, 0.0) } else { (knot(k - 1).min(span), dequantize(counts[k - 1])) };
-        let hi = if k == LAYERS - 1 { span } else { knot(k).min(span) };
-        c0 + (dequantize(counts[k]) - c0) * ((o - lo) / (hi - lo)).min(1.0)
+        // The nearest knots on either side of o, among the front ones, the back ones, the first
+        // fiber (0, no count) and the last (S, all of it); the count is monotone in depth, so
+        // the tightest pair brackets it.
+        let (mut lo, mut c_lo, mut hi, mut c_hi) = (0.0, 0.0, span, dequantize(counts[KNOTS - 1]));
+        let front = front_from(o);
+        if front > 0 {
+            (lo, c_lo) = (FRONT_KNOTS[front - 1], dequantize(counts[front - 1]));
+        }
+        if front < FRONT && FRONT_KNOTS[front] < hi {
+            (hi, c_hi) = (FRONT_KNOTS[front], dequantize(counts[front]));
+        }
+        let back = back_before(span - o);
+        if back > 0 && span - BACK_KNOTS[back - 1] < hi {
+            (hi, c_hi) = (span - BACK_KNOTS[back - 1], dequantize(counts[FRONT + back - 1]));
+        }
+        if back < BACK && span - BACK_KNOTS[back] > lo {
+            (lo, c_lo) = (span - BACK_KNOTS[back], dequantize(counts[FRONT + back]));
+        }
+        if hi <= lo {
+            return c_hi;
+        }
+        c_lo + (c_hi - c_lo) * ((o - lo) / (hi - lo)).clamp(0.0, 1.0)
     }
 
-    /// The mean count of fibers between the light and a point `p` on a fiber of radius `radius`
-    /// (world units): its own fiber is not counted (the point is taken one radius toward the
-    /// light, behind which the fiber's axis lies).
+    /// The mean count of fibers between the light and a point `p` on the surface of a fiber of
+    /// radius `radius` (world units; 0 off the hair): fibers whose axis lies more than a radius
+    /// in front of it, so that its own fiber is not counted whichever side of it `p` is on, nor
+    /// a fiber beside it.
     fn count(&self, p: DVec3, radius: f64) -> f64 {
         let (uv, depth) = self.project(p);
         let depth = depth - radius;
@@ -386,7 +434,7 @@ impl DepthMap {
     }
 
     fn bytes(&self) -> usize {
-        4 * (self.tiles.len() + self.bases.len()) + 3 * self.first.len() + LAYERS * self.counts.len()
+        4 * (self.tiles.len() + self.bases.len()) + 3 * self.first.len() + KNOTS * self.counts.len()
     }
 }
 
@@ -394,12 +442,20 @@ impl DepthMap {
 /// point of the square [-1, 1]^2 and back; the lower hemisphere folds over the corners.
 fn octahedral(d: DVec3) -> DVec2 {
     let p = DVec2::new(d.x, d.y) / (d.x.abs() + d.y.abs() + d.z.abs());
-    if d.z >= 0.0 { p } else { (DVec2::ONE - DVec2::new(p.y.abs(), p.x.abs())) * DVec2::new(p.x.signum(), p.y.signum()) }
+    if d.z >= 0.0 {
+        p
+    } else {
+        (DVec2::ONE - DVec2::new(p.y.abs(), p.x.abs())) * DVec2::new(p.x.signum(), p.y.signum())
+    }
 }
 
 fn from_octahedral(p: DVec2) -> DVec3 {
     let z = 1.0 - p.x.abs() - p.y.abs();
-    let xy = if z >= 0.0 { p } else { (DVec2::ONE - DVec2::new(p.y.abs(), p.x.abs())) * DVec2::new(p.x.signum(), p.y.signum()) };
+    let xy = if z >= 0.0 {
+        p
+    } else {
+        (DVec2::ONE - DVec2::new(p.y.abs(), p.x.abs())) * DVec2::new(p.x.signum(), p.y.signum())
+    };
     DVec3::new(xy.x, xy.y, z).normalize()
 }
 
@@ -462,7 +518,7 @@ pub fn fiber_width(strands: &Strands) -> f64 {
 impl ForwardLookup {
     /// Changes whenever `build` measures differently, so that caches of an older build are not
     /// reused (part of the cache key).
-    pub const VERSION: u32 = 5;
+    pub const VERSION: u32 = 6;
 
     /// The sun's part: its map toward `direction` (unit, toward it) and its disc's half angle.
     pub fn sun(strands: &Strands, direction: DVec3, half_angle: f64, settings: &LookupSettings) -> ForwardLookup {
@@ -477,9 +533,11 @@ impl ForwardLookup {
         let (directions, vertex_map) = EnvMaps::directions(settings.env_grid);
         let bar = if progress { ProgressBar::new(directions.len() as u64) } else { ProgressBar::hidden() };
         bar.set_style(
-            ProgressStyle::with_template("{spinner} forward-transmittance maps of the sky [{bar:40}] {pos}/{len}, ETA {eta}")
-                .expect("static progress template")
-                .progress_chars("=> "),
+            ProgressStyle::with_template(
+                "{spinner} forward-transmittance maps of the sky [{bar:40}] {pos}/{len}, ETA {eta}",
+            )
+            .expect("static progress template")
+            .progress_chars("=> "),
         );
         let maps = directions
             .par_iter()
@@ -505,10 +563,10 @@ impl ForwardLookup {
         ForwardLookup { sun: sun.and_then(|s| s.sun), env: env.and_then(|e| e.env) }
     }
 
-    /// (lit fraction, mean fibers crossed) from point `p` on a fiber of radius `radius` (0 for a
-    /// point on no fiber, like the skin) toward the unit direction `d` (world): the sun's map
-    /// for directions in its disc, the environment's for any other; `None` for a direction no
-    /// light shines from.
+    /// (lit fraction, mean fibers crossed) from point `p` toward the unit direction `d` (world):
+    /// the sun's map for directions in its disc, the environment's for any other; `None` for a
+    /// direction no light shines from. `radius` is that of the fiber `p` is on (0 for a point on
+    /// no fiber, like the skin).
     pub fn toward(&self, p: DVec3, radius: f64, d: DVec3) -> Option<(f64, f64)> {
         if let Some((map, cos_disc)) = &self.sun
             && d.dot(map.direction) >= *cos_disc
@@ -530,7 +588,8 @@ impl ForwardLookup {
 
     /// Memory it takes, in bytes.
     pub fn bytes(&self) -> usize {
-        self.sun.as_ref().map_or(0, |s| s.0.bytes()) + self.env.as_ref().map_or(0, |e| e.maps.iter().map(DepthMap::bytes).sum())
+        self.sun.as_ref().map_or(0, |s| s.0.bytes())
+            + self.env.as_ref().map_or(0, |e| e.maps.iter().map(DepthMap::bytes).sum())
     }
 
     /// The number of maps: the sun's and the environment's.
@@ -545,10 +604,10 @@ impl ForwardLookup {
     /// corner (2 f64), texel and fiber width (2 f64), size (2 u32), tile slots (u32 per tile of
     /// `TILE`^2 texels), the count of stored texels (u64), the stored tiles' base depths (f32),
     /// the texels' first depths (u16) and spans (u8, see [`DepthMap`]) and quantized cumulative
-    /// counts (`LAYERS` bytes each).
+    /// counts (`KNOTS` bytes each).
     pub fn write(&self, w: &mut impl Write) -> std::io::Result<()> {
         w.write_all(MAGIC)?;
-        w.write_all(&(LAYERS as u32).to_le_bytes())?;
+        w.write_all(&(KNOTS as u32).to_le_bytes())?;
         match &self.sun {
             Some((map, cos_disc)) => {
                 w.write_all(&[1])?;
@@ -576,7 +635,7 @@ impl ForwardLookup {
     /// (sizes are checked against the bytes before anything is allocated).
     pub fn read(bytes: &[u8]) -> Option<ForwardLookup> {
         let mut r = bytes.strip_prefix(MAGIC)?;
-        if u32::from_le_bytes(take(&mut r)?) != LAYERS as u32 {
+        if u32::from_le_bytes(take(&mut r)?) != KNOTS as u32 {
             return None;
         }
         let sun = match take::<1>(&mut r)?[0] {
@@ -640,15 +699,14 @@ fn read_map(r: &mut &[u8]) -> Option<DepthMap> {
     let tiles = map.size[0].div_ceil(TILE).checked_mul(map.size[1].div_ceil(TILE))?;
     map.tiles = chunks(r, tiles, u32::from_le_bytes)?;
     let texels = usize::try_from(u64::from_le_bytes(take(r)?)).ok()?;
-    if texels % (TILE * TILE) != 0 || map.tiles.iter().any(|&t| t != u32::MAX && t as usize >= texels / (TILE * TILE))
-    {
+    if texels % (TILE * TILE) != 0 || map.tiles.iter().any(|&t| t != u32::MAX && t as usize >= texels / (TILE * TILE)) {
         return None;
     }
     map.bases = chunks(r, texels / (TILE * TILE), f32::from_le_bytes)?;
     map.first = chunks(r, texels, u16::from_le_bytes)?;
     map.span = chunks(r, texels, u8::from_le_bytes)?;
-    let counts = chunks(r, texels.checked_mul(LAYERS)?, u8::from_le_bytes)?;
-    map.counts = counts.chunks_exact(LAYERS).map(|c| c.try_into().expect("LAYERS counts")).collect();
+    let counts = chunks(r, texels.checked_mul(KNOTS)?, u8::from_le_bytes)?;
+    map.counts = counts.chunks_exact(KNOTS).map(|c| c.try_into().expect("KNOTS counts")).collect();
     Some(map)
 }
 
@@ -673,7 +731,8 @@ mod tests {
 
     /// One straight strand along x at height z, radius r, from x = -1 to 1 in `pieces` segments.
     fn strand(z: f32, r: f32, pieces: usize) -> (Vec<Vec3>, Vec<f32>) {
-        let points: Vec<Vec3> = (0..=pieces).map(|k| Vec3::new(-1.0 + 2.0 * k as f32 / pieces as f32, 0.0, z)).collect();
+        let points: Vec<Vec3> =
+            (0..=pieces).map(|k| Vec3::new(-1.0 + 2.0 * k as f32 / pieces as f32, 0.0, z)).collect();
         let radii = vec![r; points.len()];
         (points, radii)
     }
@@ -719,6 +778,48 @@ mod tests {
         }
         // Another direction is no light.
         assert_eq!(lookup.toward(DVec3::ZERO, 0.0, DVec3::X), None);
+    }
+
+    #[test]
+    fn a_slab_and_a_hollow_count_the_fibers_above_a_point() {
+        // Sheets like the test above (coverage c = 2 r / gap = 0.1 each), light from +z: 160
+        // sheets a quarter of a fiber width apart (a slab 40 widths thick), then 300 widths of
+        // nothing (a head's hollow), then 20 sheets more. At the knots (0.5, ..., 64 widths behind
+        // the first sheet, 0.5, 1, 2 before the last, and beyond it) a point below k
+        // sheets sees k c fibers (closed form), within one sheet's c and the byte's rounding;
+        // between knots the count rises monotonically.
+        let (r, gap) = (0.001f32, 0.02f32);
+        let w = 2.0 * r as f64;
+        let depths: Vec<f64> =
+            (0..160).map(|k| k as f64 * 0.25 * w).chain((0..20).map(|k| (340.0 + k as f64 * 0.25) * w)).collect();
+        let parts: Vec<_> = depths
+            .iter()
+            .flat_map(|&d| {
+                (0..51).map(move |k| {
+                    let (mut p, radii) = strand(-d as f32, r, 50);
+                    p.iter_mut().for_each(|q| q.y = -0.5 + k as f32 * gap);
+                    (p, radii)
+                })
+            })
+            .collect();
+        let s = strands(&parts);
+        let settings = LookupSettings { sun_texel: 40.0, ..LookupSettings::default() };
+        let lookup = ForwardLookup::sun(&s, DVec3::Z, 0.0, &settings);
+        let c = 2.0 * r as f64 / gap as f64;
+        let n_at = |z: f64| lookup.toward(DVec3::new(0.1, 0.0013, -z * w), 0.0, DVec3::Z).unwrap().1;
+        // The span as stored: rounded up (`span_byte`).
+        let span = span_widths(span_byte(344.75));
+        let knots = FRONT_KNOTS.into_iter().chain(BACK_KNOTS.map(|k| span - k)).chain([span + 1.0, 1000.0]);
+        for z in knots {
+            let (n, want) = (n_at(z), depths.iter().filter(|&&d| d < z * w).count() as f64 * c);
+            assert!((n - want).abs() <= c + 0.0146 * (1.0 + want), "at depth {z} widths: n {n} vs {want}");
+        }
+        let mut before = 0.0;
+        for k in 0..2000 {
+            let n = n_at(k as f64 * 0.2);
+            assert!(n >= before - 0.0146 * (1.0 + n), "at depth {} widths: {n} after {before}", k as f64 * 0.2);
+            before = before.max(n);
+        }
     }
 
     #[test]

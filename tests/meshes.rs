@@ -5,15 +5,15 @@
 mod common;
 
 use common::{cache, dualhair};
+use dualhair::dual::{DualModel, crossing_mean, forward_cosine};
 use dualhair::film::Film;
 use dualhair::meshes::{Mesh, Meshes, read_obj};
 use dualhair::render_cmd::render_scene;
-use dualhair::dual::{DualModel, crossing_mean, forward_cosine};
 use dualhair::scene::{IntegratorKind, SceneFile, ShadowMode};
-use precompute::fiber::Fiber;
-use precompute::tables::Quantity;
 use glam::{DVec3, Vec3};
+use precompute::fiber::Fiber;
 use precompute::spectrum::Rgb;
+use precompute::tables::Quantity;
 use std::path::Path;
 
 /// A quad as OBJ text: corners `a`, `b`, `c`, `d` in order (one polygon, split when read).
@@ -237,7 +237,8 @@ fn light_through_thin_hair_reaches_the_wall() {
             let tables = cache().tables(&scene.fiber, scene.dual.d_b, false).unwrap();
             let row = crossing_mean(&tables);
             let g = forward_cosine(&Fiber::exact(&scene.fiber).unwrap());
-            let t_f = DualModel::TwoStream.transmittance(row[Quantity::AF as usize], row[Quantity::AB as usize], n, g).0;
+            let t_f =
+                DualModel::TwoStream.transmittance(row[Quantity::AF as usize], row[Quantity::AB as usize], n, g).0;
             let want = 0.540 * ((-n).exp() + (1.0 - (-n).exp()) * t_f.luminance());
             println!("n {n:.3}: through the gaps {:.4}, with T_f {want:.4}", 0.540 * (-n).exp());
             assert!((shadowed / want - 1.0).abs() < 0.1, "dual (lookup) {shadowed} vs {want}");
@@ -354,5 +355,59 @@ fn truncated_and_corrupted_obj_files_never_panic() {
             data[i] = rng.random();
         }
         read(&data);
+    }
+}
+
+/// Skin seen near the hair in the bundled default scene: `dual` (lookup and rays) against `path`
+/// (and the hair: mean ratio and 4x4-block error over fully covered hair pixels) over the pixels whose camera ray hits the head, that no hair covers and that lie within 8
+/// pixels of hair, for the README: `cargo test --release --test meshes -- --ignored --nocapture`.
+/// DUALHAIR_SKIN_BEFORE names an EXR of the same view made by an older build, compared as well.
+#[test]
+#[ignore]
+fn skin_near_hair_in_the_default_scene() {
+    let size = 160;
+    let mut file = SceneFile::load(Path::new(&format!("{}/scenes/default.json", common::ROOT))).unwrap();
+    (file.camera.width, file.camera.height) = (size, size);
+    let render_with = |integrator, mode, spp| {
+        let mut f = file.clone();
+        f.render.integrator = integrator;
+        f.render.spp = spp;
+        f.dual.shadows = mode;
+        render_scene(&f.build().unwrap(), &cache(), false).unwrap()
+    };
+    let path = render_with(IntegratorKind::Path, ShadowMode::Rays, 1024);
+    let scene = file.build().unwrap();
+    let hair: Vec<bool> = path.alpha.iter().map(|&a| a > 0.0).collect();
+    let skin: Vec<usize> = (0..size * size)
+        .filter(|&i| {
+            let (x, y) = (i % size, i / size);
+            let (o, d) = scene.camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+            let on_head = matches!(
+                scene.world().closest_hit(o, d.as_vec3(), f32::INFINITY),
+                Some(dualhair::world::Surface::Mesh(_))
+            );
+            let near = (y.saturating_sub(8)..(y + 9).min(size))
+                .any(|v| (x.saturating_sub(8)..(x + 9).min(size)).any(|u| hair[v * size + u]));
+            on_head && !hair[i] && near
+        })
+        .collect();
+    let mean = |f: &Film| skin.iter().map(|&i| f.mean[i].luminance()).sum::<f64>() / skin.len() as f64;
+    println!("{} skin pixels within 8 pixels of hair; path {:.5}", skin.len(), mean(&path));
+    for (name, mode) in [("dual (lookup)", ShadowMode::Lookup), ("dual (rays)", ShadowMode::Rays)] {
+        let dual = render_with(IntegratorKind::Dual, mode, 256);
+        let hair = dualhair::compare::hair_pixels(&path);
+        let ratio = dualhair::compare::mean_luminance(&dual, &hair) / dualhair::compare::mean_luminance(&path, &hair);
+        let (e, noise) = dualhair::compare::block_relative_rmse(&dual, &path, 4).unwrap();
+        println!(
+            "{name}: skin {:.5}, dual / path {:.4}; hair: dual / path {ratio:.4}, block error {:.1}% (noise {:.1}%)",
+            mean(&dual),
+            mean(&dual) / mean(&path),
+            100.0 * e,
+            100.0 * noise
+        );
+    }
+    if let Ok(before) = std::env::var("DUALHAIR_SKIN_BEFORE") {
+        let before = Film::read_exr(Path::new(&before)).unwrap();
+        println!("before: skin {:.5}, dual / path {:.4}", mean(&before), mean(&before) / mean(&path));
     }
 }

@@ -218,7 +218,10 @@ fn bad_scenes_name_the_problem() {
         (r#"{"hair": {"generate": {"kind": "ball"}}, "lights": {"environment": {"file": "nope.exr"}}}"#, "nope.exr"),
         (r#"{"hair": {"generate": {"kind": "ball"}}, "render": {"spp": NaN}}"#, "scene.json"),
         (r#"{"hair": {"generate": {"kind": "ball", "strands": 0}}}"#, "strands"),
-        (r#"{"hair": {"generate": {"kind": "ball"}}, "dual": {"model": "fibers"}}"#, "needs dual.shadows"),
+        (
+            r#"{"hair": {"generate": {"kind": "ball"}}, "dual": {"model": "fibers", "shadows": "lookup"}}"#,
+            "needs dual.shadows",
+        ),
         (r#"{"hair": {"generate": {"kind": "ball"}}, "dual": {"lookup": {"env_grid": 1}}}"#, "dual.lookup.env_grid"),
         (r#"{"hair": {"generate": {"kind": "ball"}}, "dual": {"lookup": {"sun_texel": 0}}}"#, "dual.lookup.sun_texel"),
         (r#"{"hair": {"generate": {"kind": "ball"}}, "dual": {"shadows": "maps"}}"#, "unknown variant `maps`"),

@@ -36,8 +36,9 @@
 //! (with shadow rays).
 //!
 //! `dual.shadows` "rays" decides lit or in shadow with that shadow ray and marches the grid for
-//! n; the default "lookup" ([`crate::transmittance`]) reads the segment's lit fraction L toward the
-//! light and n from a precomputed table instead, and F = L F_direct + (1 - L) F_scatter.
+//! n; "lookup" ([`crate::transmittance`]) reads the lit fraction L = e^-n toward the light and n
+//! from deep opacity maps instead, and F = L F_direct + (1 - L) F_scatter, its straight-line n
+//! turned into the count along the light's deflected way ([`forward_cosine`]).
 //!
 //! The environment integral of F is estimated with one light sample per light and one sample of
 //! F's own sampler, combined by the power heuristic (Veach 1997). F's sampler is `uniform` over
@@ -300,8 +301,8 @@ pub enum Shadows<'a> {
     /// A shadow ray through the real strands decides lit or not, and in shadow the density grid
     /// is marched for n: crisp hair-on-hair shadows.
     Rays,
-    /// The precomputed lookup gives the hit segment's lit fraction toward the light and n: soft
-    /// shadows at segment scale, no ray or march per sample.
+    /// Deep opacity maps give the lit fraction toward the light and n: soft shadows at a few
+    /// fiber widths; a shadow ray against the meshes alone.
     Lookup(&'a ForwardLookup),
 }
 

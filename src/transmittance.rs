@@ -99,8 +99,9 @@ fn back_before(d: f64) -> usize {
 const TILE: usize = 4;
 
 /// The most texels a map may span (before tiles drop the empty ones): a coarser texel is taken
-/// beyond, so that a map of a sprawling groom stays within memory (16 bytes a texel).
-const MAX_TEXELS: f64 = 16e6;
+/// beyond, so that a map of a sprawling groom stays within memory (16 bytes a texel kept, about
+/// 64 while its map is built, on each thread: 256 MB here at most).
+const MAX_TEXELS: f64 = 4e6;
 
 /// The cumulative count on a log scale in a byte: q = round(24 log2(1 + n)), steps of 2.9% in
 /// 1 + n (rounding keeps n within half of one), up to n = 1600; read back through a table.

@@ -52,8 +52,8 @@
 
 use crate::fibers::Hit;
 use crate::integrator::{
-    CameraSample, Frame, Integrator, Term, Terms, background, hit_frame, light_weight, sample_cosine, sample_lights,
-    seen_lights, spawn_point,
+    CameraSample, Frame, Integrator, Term, Terms, background, diffuse_light, hit_frame, light_weight, sample_cosine,
+    sample_lights, seen_lights, spawn_point,
 };
 use crate::light::{LightSample, Lights};
 use crate::meshes::{self, MeshHit};
@@ -290,8 +290,10 @@ pub struct DualScattering<'a, M> {
     /// The tables over the fibers a ray crosses ([`crossing_mean`]): what light passing through
     /// hair onto a mesh meets.
     pub crossing: [Rgb; 9],
-    /// The fiber's mean cosine of forward deflection ([`forward_cosine`]), for the lookup's
-    /// straight-line counts.
+    /// The mean cosine of forward deflection the counts want (see [`DualModel::transmittance`]):
+    /// the fiber's ([`forward_cosine`]) for the lookup's counts, which run along the straight line
+    /// (they match the real crossings); 1 for the density grid's, measured to run about 30% above
+    /// them already (README, "The forward-transmittance lookup").
     pub deflection: Rgb,
 }
 
@@ -480,7 +482,7 @@ where
         }
         let (model, row) = (dual.model, &inc.row);
         let a_f = row[Quantity::AF as usize];
-        let (t_f, mean_n) = model.transmittance(a_f, row[Quantity::AB as usize], n, dual.cosine());
+        let (t_f, mean_n) = model.transmittance(a_f, row[Quantity::AB as usize], n, dual.deflection);
         let var_f = Rgb(row[Quantity::BetaF as usize].0.map(|b| mean_n * b * b));
         let scale = t_f * if model.d_f_twice() { dual.d_f * dual.d_f } else { dual.d_f };
         let mut split = Split { forward: scale * f_spread(var_f * 4.0), ..Split::default() };
@@ -570,16 +572,6 @@ where
 }
 
 impl<M> DualScattering<'_, M> {
-    /// The mean cosine of forward deflection that the counts want: the lookup's run along the
-    /// straight line (they match the real crossings), the density grid's are measured to run
-    /// about 30% above them already (README, "The forward-transmittance lookup").
-    fn cosine(&self) -> Rgb {
-        match self.shadows {
-            Shadows::Lookup(_) => self.deflection,
-            Shadows::Rays => Rgb::ONE,
-        }
-    }
-
     /// The share of a light's radiance from direction `d` (unit, world) that reaches the mesh
     /// point `from` through the hair: what passes between the fibers, plus what the fibers in the
     /// way pass on forward (d_f T_f of the mean count, with a_f over the fibers a ray crosses:
@@ -600,7 +592,8 @@ impl<M> DualScattering<'_, M> {
             return Rgb::splat(lit);
         }
         let row = &self.crossing;
-        let t_f = self.model.transmittance(row[Quantity::AF as usize], row[Quantity::AB as usize], n, self.cosine()).0;
+        let t_f =
+            self.model.transmittance(row[Quantity::AF as usize], row[Quantity::AB as usize], n, self.deflection).0;
         Rgb::splat(lit) + t_f * ((1.0 - lit) * self.d_f)
     }
 
@@ -613,13 +606,7 @@ impl<M> DualScattering<'_, M> {
         let mut radiance = Rgb::ZERO;
         let k = self.light_samples;
         sampler.split(k, &mut |sampler| {
-            sample_lights(self.lights, sampler, |s| {
-                let cos = s.wi.dot(hit.normal.as_dvec3());
-                if cos > 0.0 {
-                    let f = hit.albedo * (cos * FRAC_1_PI);
-                    radiance += f * self.through_hair(from, s.wi) * light_weight(s, || cos * FRAC_1_PI);
-                }
-            });
+            sample_lights(self.lights, sampler, |s| radiance += diffuse_light(s, hit, |d| self.through_hair(from, d)));
             let (d, pdf) = sample_cosine(hit.normal.as_dvec3(), sampler.get_2d());
             radiance += hit.albedo * self.through_hair(from, d) * seen_lights(self.lights, d, pdf);
         });

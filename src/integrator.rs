@@ -249,7 +249,9 @@ impl<M: FiberModel> Integrator for PathTracer<'_, M> {
                 }
                 Surface::Mesh(hit) => {
                     let from = meshes::spawn_point(hit);
-                    sample_lights(self.lights, sampler, |s| add(diffuse_light(self.world, s, hit, from), backward));
+                    let unblocked =
+                        |d: DVec3| Rgb::splat(!self.world.occluded(from, d.as_vec3(), f32::INFINITY) as u8 as f64);
+                    sample_lights(self.lights, sampler, |s| add(diffuse_light(s, hit, unblocked), backward));
                     let (dir, pdf) = sample_cosine(hit.normal.as_dvec3(), sampler.get_2d());
                     (from, Some(Onward { dir, pdf, weight: hit.albedo, backward }))
                 }
@@ -289,13 +291,18 @@ impl<M: FiberModel> Integrator for PathTracer<'_, M> {
 }
 
 /// Light from a light sample scattered at a diffuse mesh hit (f = albedo / pi, two-sided),
-/// MIS-weighted against cosine sampling; `from` is where the shadow ray starts.
-pub(crate) fn diffuse_light(world: World, s: &LightSample, hit: &MeshHit, from: Vec3) -> Rgb {
+/// MIS-weighted against cosine sampling; `reaching` gives the share of the light's radiance that
+/// reaches the hit from the sample's direction (0 or 1 behind a shadow ray).
+pub(crate) fn diffuse_light(s: &LightSample, hit: &MeshHit, reaching: impl FnOnce(DVec3) -> Rgb) -> Rgb {
     let cos = s.wi.dot(hit.normal.as_dvec3());
-    if cos <= 0.0 || world.occluded(from, s.wi.as_vec3(), f32::INFINITY) {
+    if cos <= 0.0 {
         return Rgb::ZERO;
     }
-    hit.albedo * (cos * FRAC_1_PI) * light_weight(s, || cos * FRAC_1_PI)
+    let reached = reaching(s.wi);
+    if reached.0.iter().all(|&r| r == 0.0) {
+        return Rgb::ZERO;
+    }
+    hit.albedo * reached * (cos * FRAC_1_PI) * light_weight(s, || cos * FRAC_1_PI)
 }
 
 /// A cosine-weighted direction about the unit normal `n` (Malley's method: a uniform point on the

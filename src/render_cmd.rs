@@ -15,6 +15,7 @@ use crate::transmittance::ForwardLookup;
 use anyhow::{Context, Result, anyhow, bail, ensure};
 use precompute::density::{DensityGrid, read_vdb};
 use precompute::fiber::{Fiber, ModelKind, UniformSampled};
+use precompute::spectrum::Rgb;
 use precompute::tables::Tables;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -254,7 +255,7 @@ pub fn render_into(
             },
             light_samples: d.light_samples(&scene.lights),
             crossing: crossing_mean(&inputs.tables),
-            deflection: forward_cosine(&fiber),
+            deflection: if inputs.lookup.is_some() { forward_cosine(&fiber) } else { Rgb::ONE },
         };
         return Ok(render(&scene.camera, &dual, seed, sums, end, progress));
     }

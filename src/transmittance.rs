@@ -738,6 +738,17 @@ mod tests {
         (points, radii)
     }
 
+    /// `count` strands like [`strand`], `gap` apart in y from y = -0.5.
+    fn sheet(z: f32, r: f32, gap: f32, count: usize) -> Vec<(Vec<Vec3>, Vec<f32>)> {
+        (0..count)
+            .map(|k| {
+                let (mut p, radii) = strand(z, r, 50);
+                p.iter_mut().for_each(|q| q.y = -0.5 + k as f32 * gap);
+                (p, radii)
+            })
+            .collect()
+    }
+
     fn strands(parts: &[(Vec<Vec3>, Vec<f32>)]) -> Strands {
         let mut s = Strands { points: Vec::new(), radii: Vec::new(), offsets: vec![0] };
         for (p, r) in parts {
@@ -755,14 +766,7 @@ mod tests {
         // points above the sheet see none, points below see the sheet, a fiber in the sheet
         // does not count itself.
         let (r, gap) = (0.001f32, 0.005f32);
-        let parts: Vec<_> = (0..201)
-            .map(|k| {
-                let (mut p, radii) = strand(0.0, r, 50);
-                p.iter_mut().for_each(|q| q.y = -0.5 + k as f32 * gap);
-                (p, radii)
-            })
-            .collect();
-        let s = strands(&parts);
+        let s = strands(&sheet(0.0, r, gap, 201));
         let settings = LookupSettings { sun_texel: 20.0, ..LookupSettings::default() };
         let lookup = ForwardLookup::sun(&s, DVec3::Z, 0.0, &settings);
         let expect = 2.0 * r as f64 / gap as f64;
@@ -793,16 +797,7 @@ mod tests {
         let w = 2.0 * r as f64;
         let depths: Vec<f64> =
             (0..160).map(|k| k as f64 * 0.25 * w).chain((0..20).map(|k| (340.0 + k as f64 * 0.25) * w)).collect();
-        let parts: Vec<_> = depths
-            .iter()
-            .flat_map(|&d| {
-                (0..51).map(move |k| {
-                    let (mut p, radii) = strand(-d as f32, r, 50);
-                    p.iter_mut().for_each(|q| q.y = -0.5 + k as f32 * gap);
-                    (p, radii)
-                })
-            })
-            .collect();
+        let parts: Vec<_> = depths.iter().flat_map(|&d| sheet(-d as f32, r, gap, 51)).collect();
         let s = strands(&parts);
         let settings = LookupSettings { sun_texel: 40.0, ..LookupSettings::default() };
         let lookup = ForwardLookup::sun(&s, DVec3::Z, 0.0, &settings);

@@ -14,7 +14,7 @@ mod common;
 use common::{bundled, cache};
 
 /// What is compared, each as (lookup, exact) means over camera hits.
-const NAMES: [&str; 8] = [
+const NAMES: [&str; 10] = [
     "sun lit fraction",
     "sun lit fraction, f_s-weighted",
     "sky visibility, f_s-weighted",
@@ -23,23 +23,26 @@ const NAMES: [&str; 8] = [
     "fibers crossed where shadowed (lookup's n, grid march)",
     "fibers crossed toward the sun where shadowed (lookup's E[N | N >= 1], real crossings)",
     "fibers crossed toward the sun where shadowed (lookup's n, grid march)",
+    "sun lit fraction where the ray escapes",
+    "sun lit fraction where the ray is blocked",
 ];
 
 /// Means over camera hits (`k` x `k` per pixel) of [`NAMES`]: the sun's lit fraction toward its
 /// centre, plain and weighted by f_s toward it; the environment's visibility weighted by f_s cos
 /// theta_i (directions drawn from the fiber's sampler) and unweighted (uniform directions); and,
 /// toward the f_s-weighted directions the rays find blocked, the lookup's count against the
-/// fibers the ray really crosses and against the density grid's march. Rays and lookup see the
-/// hair alone (`dual` traces rays against the meshes with both).
-fn compare(file: &SceneFile, settings: LookupSettings, k: usize) -> [(f64, f64); 8] {
+/// fibers the ray really crosses and against the density grid's march; and the sun's lit fraction
+/// apart where the ray escapes (exact 1) and where it is blocked (exact 0). Rays and lookup see
+/// the hair alone (`dual` traces rays against the meshes with both).
+fn compare(file: &SceneFile, settings: LookupSettings, k: usize) -> [(f64, f64); 10] {
     let scene = file.build().unwrap();
     let grid = cache().density(&scene.strands, None).unwrap();
     let sun = scene.lights.sun.as_ref().unwrap();
     let lookup = ForwardLookup::build(&scene.strands, &scene.lights, &settings, false);
     let chiang = Chiang::new(&scene.fiber).unwrap();
     let mut rng = Pcg64Mcg::seed_from_u64(3);
-    let mut sums = [[0.0; 2]; 8];
-    let mut weights = [0.0; 8];
+    let mut sums = [[0.0; 2]; 10];
+    let mut weights = [0.0; 10];
     let (w, h) = (scene.camera.width, scene.camera.height);
     for y in 0..h * k {
         for x in 0..w * k {
@@ -64,6 +67,7 @@ fn compare(file: &SceneFile, settings: LookupSettings, k: usize) -> [(f64, f64);
             let sun_d = sun.direction;
             let ((lit, n), rays) = (lookup.toward(p, r, sun_d).unwrap(), escapes(sun_d));
             add(0, 1.0, lit, rays);
+            add(if rays == 1.0 { 8 } else { 9 }, 1.0, lit, rays);
             let f_s = fiber.eval(local(sun_d)).luminance();
             add(1, f_s, lit, rays);
             if rays == 0.0 {
@@ -95,9 +99,13 @@ fn compare(file: &SceneFile, settings: LookupSettings, k: usize) -> [(f64, f64);
     std::array::from_fn(|k| (sums[k][0] / weights[k], sums[k][1] / weights[k]))
 }
 
-fn report(label: &str, means: [(f64, f64); 8]) -> [f64; 8] {
+fn report(label: &str, means: [(f64, f64); 10]) -> [f64; 10] {
     std::array::from_fn(|k| {
         let (got, want) = means[k];
+        if want == 0.0 {
+            println!("{label} {}: lookup {got:.4}, exact 0", NAMES[k]);
+            return got;
+        }
         println!("{label} {}: lookup {got:.4}, exact {want:.4} ({:+.1}%)", NAMES[k], 100.0 * (got / want - 1.0));
         got / want - 1.0
     })

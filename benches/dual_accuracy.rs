@@ -11,6 +11,16 @@
 //!   over fully covered blocks, with the part both images' noise explains and the rest (bias),
 //!   and the mean ratio over every pixel with hair in it (silhouettes carry a back sun's light).
 //!
+//! - equal time: `path`'s error at `dual`'s render time over `dual`'s (4x4 blocks, the truth's own
+//!   error removed from both): a test `path` render (seed 2, DUALHAIR_ACC_PATH_SPP, default the
+//!   `dual` spp) gives `path`'s error e_p in t_p seconds, e_p sqrt(t_p / t_dual) at `dual`'s time
+//!   t_dual (noise falls as 1 / sqrt(time), `path` has no bias). 3 means `path` needs about 10x
+//!   `dual`'s time to match it; below 1 `dual` has no reason to exist on that row. Renders are
+//!   timed alone, one after another, caches warm.
+//!
+//! With DUALHAIR_ACC_DEFAULT=1 the bundled default scene (`scenes/default.json`, its own lights)
+//! is a row too.
+//!
 //! With DUALHAIR_ACC_SWEEP=1 it also measures speed: the wall time `dual` needs to come within 10%
 //! of its converged error, and the time `path` needs for that error, in the same run.
 //!
@@ -96,10 +106,14 @@ fn main() {
     std::fs::create_dir_all(&refs).unwrap();
     println!("{size}x{size} pixels, reference path {ref_spp} spp, dual {dual_spp} spp; 4x4 blocks");
     println!(
-        "| hair | light | image | d_f, d_b | single | forward | back | multiback | mean ratio | block rel. RMSE (noise), bias | mean ratio, all hair pixels |"
+        "| hair | light | image | d_f, d_b | single | forward | back | multiback | mean ratio | block rel. RMSE (noise), bias | mean ratio, all hair pixels | equal-time error ratio |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let path_spp: u32 = env_or("DUALHAIR_ACC_PATH_SPP", dual_spp);
     let mut hairs: Vec<(String, Option<PathBuf>)> = ["blond", "brown", "black"].map(|h| (h.to_string(), None)).to_vec();
+    if std::env::var("DUALHAIR_ACC_DEFAULT").is_ok_and(|v| v == "1") {
+        hairs.push(("default".to_string(), None));
+    }
     for g in grooms.split(',').filter(|g| !g.is_empty()) {
         let stem = Path::new(g).file_stem().unwrap().to_string_lossy().to_string();
         for color in ["blond", "brown", "black"] {
@@ -107,7 +121,8 @@ fn main() {
         }
     }
     for (hair, groom) in &hairs {
-        for light in ["hdri", "front", "back"] {
+        let lights: &[&str] = if hair == "default" { &["scene"] } else { &["hdri", "front", "back"] };
+        for &light in lights {
             let name = format!("{hair} {light}");
             if !name.contains(&filter) {
                 continue;
@@ -140,7 +155,18 @@ fn main() {
             let any_hair: Vec<usize> = (0..reference.alpha.len()).filter(|&i| reference.alpha[i] > 0.0).collect();
             let total = mean_luminance(&reference, &pixels);
             let shares = |film: &Film| term_means(film, &pixels).map(|t| format!("{:.3}", t / total)).join(" | ");
-            println!("| {hair} | {light} | path | - | {} | 1 | - | 1 |", shares(&reference));
+            println!("| {hair} | {light} | path | - | {} | 1 | - | 1 | - |", shares(&reference));
+            // `path`'s own error from its error E against the truth (both unbiased, independent
+            // seeds): E^2 = e^2 (1 + P / R), the truth's error e sqrt(P / R), removed from every
+            // error measured against it. The truth's variance estimates are no help under a back
+            // sun: a few bright samples dominate them.
+            let mut test = path.clone();
+            (test.render.spp, test.render.seed) = (path_spp, 2);
+            let (test, path_secs) = timed_render(&test, &cache, true);
+            let ratio = path_spp as f64 / ref_spp as f64;
+            let path_error = block_relative_rmse(&test, &reference, 4).map(|(e, _)| e / (1.0 + ratio).sqrt());
+            let truth_error = path_error.unwrap_or(0.0) * ratio.sqrt();
+            let own = |e: f64| (e * e - truth_error * truth_error).max(0.0).sqrt();
             // Each model's mean ratio per seed, by (model with factors, shadows).
             let mut ratios: Vec<((&str, &str), Vec<f64>)> = Vec::new();
             for spec in models.split(',') {
@@ -170,15 +196,22 @@ fn main() {
                     dual.render.seed = seed;
                     seeds.push(mean_luminance(&timed_render(&dual, &cache, false).0, &pixels) / total);
                 }
+                let equal_time = match (path_error, block_relative_rmse(&film, &reference, 4)) {
+                    (Some(p), Some((e, _))) => format!("{:.2}", p * (path_secs / secs).sqrt() / own(e)),
+                    _ => "-".into(),
+                };
                 println!(
-                    "| {hair} | {light} | dual {model} ({shadows}) | {}, {} | {} | {} | {blocks} | {all:.3} |",
+                    "| {hair} | {light} | dual {model} ({shadows}) | {}, {} | {} | {} | {blocks} | {all:.3} | {equal_time} |",
                     dual.dual.d_f,
                     dual.dual.d_b,
                     shares(&film),
                     mean_and_error(&seeds),
                 );
                 ratios.push(((spec_model, shadows), seeds));
-                eprintln!("  {name} {spec}: {secs:.1} s, {} hair pixels", pixels.len());
+                eprintln!(
+                    "  {name} {spec}: {secs:.1} s (path at {path_spp} spp {path_secs:.1} s), {} hair pixels",
+                    pixels.len()
+                );
                 if std::env::var("DUALHAIR_ACC_SWEEP").is_ok_and(|v| v == "1") {
                     let target = 1.1 * relative_rmse(&film, &reference, &pixels);
                     let mut p = file.clone();
@@ -192,7 +225,10 @@ fn main() {
             for ((model, _), rays) in ratios.iter().filter(|r| r.0.1 == "rays") {
                 if let Some((_, lookup)) = ratios.iter().find(|r| r.0 == (*model, "lookup")) {
                     let paired: Vec<f64> = lookup.iter().zip(rays).map(|(l, r)| l / r).collect();
-                    println!("| {hair} | {light} | {model}: lookup / rays | | | | | | {} | |", mean_and_error(&paired));
+                    println!(
+                        "| {hair} | {light} | {model}: lookup / rays | | | | | | {} | | |",
+                        mean_and_error(&paired)
+                    );
                 }
             }
         }

@@ -33,7 +33,13 @@
 //!   the forward-scattered light arrives from: (pi - |phi|) / pi^2, which also integrates to 1.
 //!
 //! d_f = d_b = 0 leaves F = f_s when lit and 0 in shadow: single scattering, sample for sample
-//! (with shadow rays).
+//! (with shadow rays, in a scene without meshes).
+//!
+//! A mesh (the head) hides the lights behind it and sends back its own diffuse light: a
+//! direction from F's sampler that meets a mesh gathers one estimate of the mesh's radiance
+//! (what `path` finds at its second vertex there), with F as for a light. Light samples never
+//! draw a mesh, so under `light` sampling one direction a hit is drawn from the fiber's sampler
+//! for that light alone.
 //!
 //! `dual.shadows` "rays" decides lit or in shadow with that shadow ray and marches the grid for
 //! n; "lookup" ([`crate::transmittance`]) reads the lit fraction L = e^-n toward the light and n
@@ -392,8 +398,10 @@ where
         Shading { dual, fiber, frame, theta_o, phi_o, from: spawn_point(hit), radius: hit.radius as f64, uniform }
     }
 
-    /// F(wo, wi) toward the light direction `wi` (local) = `d` (world), split into its terms.
-    fn f(&self, wi: DVec3, d: DVec3) -> Split {
+    /// F(wo, wi) toward the light direction `wi` (local) = `d` (world), split into its terms,
+    /// for light from as far as `reach` (world units): infinity for the lights, a mesh's distance
+    /// for the light it sends back.
+    fn f(&self, wi: DVec3, d: DVec3, reach: f32) -> Split {
         let dual = self.dual;
         let (sin_i, cos_i) = sin_cos_theta(wi);
         let (theta_i, phi_i) = (sin_i.asin(), phi(wi));
@@ -401,14 +409,15 @@ where
         // The lit fraction toward the light (Zinke et al. 2008's directFraction) weighs F_direct
         // against F_scatter of the mean count n. Without an entry, rays.
         let entry = match dual.shadows {
-            Shadows::Lookup(lookup) => {
+            // The maps hold the hair toward lights at infinity; a mesh's light comes by rays.
+            Shadows::Lookup(lookup) if reach == f32::INFINITY => {
                 // A mesh in the way (the head) is opaque; the maps hold the hair alone.
                 if !dual.world.meshes.is_empty() && dual.world.meshes.occluded(self.from, d.as_vec3(), f32::INFINITY) {
                     return Split::default();
                 }
                 lookup.toward(self.from.as_dvec3(), self.radius, d)
             }
-            Shadows::Rays => None,
+            _ => None,
         };
         // Fully lit from the forward half (no backscatter there): F_direct is f_s alone, and the
         // tables are not read.
@@ -418,16 +427,16 @@ where
         let row = dual.tables.at(theta_i);
         let back = if dual.d_b > 0.0 { self.back_lobes(&row) } else { [BackLobe::default(); 3] };
         let inc = Incoming { wi, sin_i, cos_i, dphi, row, back };
-        let Some((lit, n)) = entry else { return self.f_rays(&inc, d) };
+        let Some((lit, n)) = entry else { return self.f_rays(&inc, d, reach) };
         if lit >= 1.0 {
             return self.direct(&inc, self.fiber.eval(wi));
         }
         if lit <= 0.0 {
-            return self.scatter(&inc, n, |spread| self.fiber.eval_spread(wi, spread));
+            return self.scatter(&inc, n, dual.deflection, |spread| self.fiber.eval_spread(wi, spread));
         }
         // Partly lit: f_s and f_s^G share the work of the direction.
         let mut f_s = None;
-        let scatter = self.scatter(&inc, n, |spread| {
+        let scatter = self.scatter(&inc, n, dual.deflection, |spread| {
             let (direct, spread) = self.fiber.eval_both(wi, spread);
             f_s = Some(direct);
             spread
@@ -436,27 +445,28 @@ where
         self.direct(&inc, f_s).scaled(lit).plus(&scatter.scaled(1.0 - lit))
     }
 
-    /// F with a shadow ray: fully lit when no fiber is in the way (a shadow ray through the real
-    /// strands, or for `fibers` the real count of fibers crossed, Zinke's ray shooting, being 0),
-    /// else in shadow with the count the density grid's march gives.
-    fn f_rays(&self, inc: &Incoming, d: DVec3) -> Split {
+    /// F with a shadow ray to `reach`: fully lit when no fiber is in the way (a shadow ray
+    /// through the real strands, or for `fibers` the real count of fibers crossed, Zinke's ray
+    /// shooting, being 0), else in shadow with the count the density grid's march gives (whose
+    /// T_f wants no deflection factor: see [`DualScattering::deflection`]).
+    fn f_rays(&self, inc: &Incoming, d: DVec3, reach: f32) -> Split {
         let dual = self.dual;
         // A mesh in the way (the head) is opaque: no light of this direction reaches the fiber.
-        if dual.world.meshes.occluded(self.from, d.as_vec3(), f32::INFINITY) {
+        if dual.world.meshes.occluded(self.from, d.as_vec3(), reach) {
             return Split::default();
         }
         let fibers = dual.world.fibers;
         let count = (dual.model.transmittance_kind() == Transmittance::Fibers)
-            .then(|| fibers.crossings(self.from, d.as_vec3()) as f64);
+            .then(|| fibers.crossings(self.from, d.as_vec3(), reach) as f64);
         let lit = match count {
             Some(n) => n == 0.0,
-            None => !fibers.occluded(self.from, d.as_vec3(), f32::INFINITY),
+            None => !fibers.occluded(self.from, d.as_vec3(), reach),
         };
         if lit {
             self.direct(inc, self.fiber.eval(inc.wi))
         } else {
-            let n = count.unwrap_or_else(|| dual.grid.fibers_crossed(self.from.as_dvec3(), d, f64::INFINITY));
-            self.scatter(inc, n, |spread| self.fiber.eval_spread(inc.wi, spread))
+            let n = count.unwrap_or_else(|| dual.grid.fibers_crossed(self.from.as_dvec3(), d, reach as f64));
+            self.scatter(inc, n, Rgb::ONE, |spread| self.fiber.eval_spread(inc.wi, spread))
         }
     }
 
@@ -475,14 +485,14 @@ where
     /// the way (directFraction = 0), with T_f and sigma_f^2 = n' beta_f^2 as the model says
     /// (thesis eqs. 3.18 and 3.20 for `zinke2008`: T_f = a_f^n, n' = n, k = 2). `f_spread` gives
     /// f_s^G for a spread (not called when d_f = 0).
-    fn scatter(&self, inc: &Incoming, n: f64, f_spread: impl FnOnce(Rgb) -> Rgb) -> Split {
+    fn scatter(&self, inc: &Incoming, n: f64, deflection: Rgb, f_spread: impl FnOnce(Rgb) -> Rgb) -> Split {
         let dual = self.dual;
         if dual.d_f == 0.0 {
             return Split::default();
         }
         let (model, row) = (dual.model, &inc.row);
         let a_f = row[Quantity::AF as usize];
-        let (t_f, mean_n) = model.transmittance(a_f, row[Quantity::AB as usize], n, dual.deflection);
+        let (t_f, mean_n) = model.transmittance(a_f, row[Quantity::AB as usize], n, deflection);
         let var_f = Rgb(row[Quantity::BetaF as usize].0.map(|b| mean_n * b * b));
         let scale = t_f * if model.d_f_twice() { dual.d_f * dual.d_f } else { dual.d_f };
         let mut split = Split { forward: scale * f_spread(var_f * 4.0), ..Split::default() };
@@ -560,7 +570,7 @@ where
     /// its terms.
     fn light(&self, s: &LightSample, radiance: &mut Rgb, terms: &mut Terms) {
         let wi = self.frame.to_local(s.wi);
-        let split = self.f(wi, s.wi);
+        let split = self.f(wi, s.wi, f32::INFINITY);
         let f = split.total();
         if f.luminance() <= 0.0 {
             return;
@@ -597,20 +607,57 @@ impl<M> DualScattering<'_, M> {
         Rgb::splat(lit) + t_f * ((1.0 - lit) * self.d_f)
     }
 
-    /// A mesh the camera sees (the head): direct light, arriving through the hair as
-    /// [`DualScattering::through_hair`] says; the light that hair scatters back onto it is not
-    /// modeled (README, "Meshes"). The same light samples per hit as a fiber hit, each with a
-    /// cosine sample.
-    fn mesh(&self, hit: &MeshHit, sampler: &mut impl Sampler) -> CameraSample {
+    /// One estimate of the radiance a diffuse mesh point sends out (the same every way): the
+    /// lights' direct light, arriving through the hair as [`DualScattering::through_hair`] says,
+    /// from one sample of each light and one cosine sample, MIS-weighted. The light that hair
+    /// scatters back onto it is not modeled (README, "Meshes").
+    fn mesh_radiance(&self, hit: &MeshHit, sampler: &mut impl Sampler) -> Rgb {
         let from = meshes::spawn_point(hit);
         let mut radiance = Rgb::ZERO;
+        sample_lights(self.lights, sampler, |s| radiance += diffuse_light(s, hit, |d| self.through_hair(from, d)));
+        let (d, pdf) = sample_cosine(hit.normal.as_dvec3(), sampler.get_2d());
+        radiance + hit.albedo * self.through_hair(from, d) * seen_lights(self.lights, d, pdf)
+    }
+
+    /// A mesh the camera sees (the head): [`DualScattering::mesh_radiance`] from as many
+    /// estimates as a fiber hit takes light samples.
+    fn mesh(&self, hit: &MeshHit, sampler: &mut impl Sampler) -> CameraSample {
+        let mut radiance = Rgb::ZERO;
         let k = self.light_samples;
-        sampler.split(k, &mut |sampler| {
-            sample_lights(self.lights, sampler, |s| radiance += diffuse_light(s, hit, |d| self.through_hair(from, d)));
-            let (d, pdf) = sample_cosine(hit.normal.as_dvec3(), sampler.get_2d());
-            radiance += hit.albedo * self.through_hair(from, d) * seen_lights(self.lights, d, pdf);
-        });
+        sampler.split(k, &mut |sampler| radiance += self.mesh_radiance(hit, sampler));
         CameraSample { radiance: radiance * (1.0 / k as f64), hit_hair: false, terms: [Rgb::ZERO; 4] }
+    }
+}
+
+impl<M: FiberModel> DualScattering<'_, M>
+where
+    for<'h> M::Hit<'h>: SpreadHit,
+{
+    /// F toward the direction `wi` (local) drawn with density `pdf` by a sampler other than the
+    /// lights', and the weight of the radiance arriving that way: a mesh's light when a mesh is
+    /// that way (one estimate of it, through the hair between; light sampling never draws it, so
+    /// this sample takes it whole), else with `lights` the lights seen that way, MIS-weighted
+    /// against light sampling. `None` where no light arrives.
+    fn gather(
+        &self,
+        shading: &Shading<'_, M>,
+        wi: DVec3,
+        pdf: f64,
+        lights: bool,
+        sampler: &mut impl Sampler,
+    ) -> Option<(Split, Rgb)> {
+        if pdf <= 0.0 {
+            return None;
+        }
+        let d = shading.frame.to_world(wi).normalize();
+        let (weight, reach) = match self.world.meshes.closest_hit(shading.from, d.as_vec3(), f32::INFINITY) {
+            // Short of the mesh, so that its own surface does not shadow it.
+            Some(mesh) => (self.mesh_radiance(&mesh, sampler) / pdf, mesh.t * (1.0 - 1e-4)),
+            None if lights => (seen_lights(self.lights, d, pdf) / pdf, f32::INFINITY),
+            None => return None,
+        };
+        // No light that way (a sun-only scene, mostly): F would be multiplied by 0.
+        weight.0.iter().any(|&w| w != 0.0).then(|| (shading.f(wi, d, reach), weight))
     }
 }
 
@@ -629,22 +676,29 @@ where
         // `light_samples` sub-samples share the camera ray and the per-hit state. With one, the
         // same random numbers in the same order as `single`: d_f = d_b = 0 reproduces it.
         let k = self.light_samples;
+        let mut first = true;
         sampler.split(k, &mut |sampler| {
             sample_lights(self.lights, sampler, |s| shading.light(s, &mut radiance, &mut terms));
             // F's own sampler makes the last request, so every strategy draws the same light
             // directions (renders with the same seed then differ only through the strategy).
-            if let Some((wi, pdf)) = shading.sample(sampler) {
-                if pdf > 0.0 {
-                    let d = shading.frame.to_world(wi).normalize();
-                    let weight = seen_lights(self.lights, d, pdf) / pdf;
-                    // No light seen that way (a sun-only scene, mostly): F would be multiplied by 0.
-                    if weight.0.iter().any(|&w| w != 0.0) {
-                        let split = shading.f(wi, d);
-                        radiance += split.total() * weight;
-                        split.add_to(&mut terms, weight);
-                    }
-                }
+            let gathered = match shading.sample(sampler) {
+                Some((wi, pdf)) => self.gather(&shading, wi, pdf, true, sampler),
+                // Light samples alone: with meshes, one direction from the fiber's own sampler for
+                // the light the meshes send back, which light samples never draw (the lights'
+                // directions a mesh hides they count as dark, rightly). One per hit, in the first
+                // sub-sample and counted k times: it is a small share of the light and costs
+                // two more shadow rays when it finds a mesh.
+                None if first && !self.world.meshes.is_empty() => shading
+                    .fiber
+                    .sample(sampler.get_4d())
+                    .and_then(|s| self.gather(&shading, s.wi, s.pdf / k as f64, false, sampler)),
+                None => None,
+            };
+            if let Some((split, weight)) = gathered {
+                radiance += split.total() * weight;
+                split.add_to(&mut terms, weight);
             }
+            first = false;
         });
         let share = 1.0 / k as f64;
         terms.iter_mut().for_each(|t| *t = *t * share);

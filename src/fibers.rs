@@ -274,14 +274,14 @@ impl Fibers {
         !self.bvh.ray_traverse_miss(ray, |r, id| self.enter(o, d, id, r.tmax).map_or(f32::INFINITY, |t| t as f32))
     }
 
-    /// The number of fibers the ray crosses (to infinity): Zinke et al. 2008's ray-shooting count
-    /// (section 4.2). A strand crossed at the joint of two segments enters both capsules at
-    /// nearly the same distance; such a pair counts once.
-    pub fn crossings(&self, origin: Vec3, dir: Vec3) -> u32 {
-        let (ray, o, d) = self.to_bvh_ray(origin, dir, f32::INFINITY);
+    /// The number of fibers the ray crosses before `t_max` (world units): Zinke et al. 2008's
+    /// ray-shooting count (section 4.2). A strand crossed at the joint of two segments enters
+    /// both capsules at nearly the same distance; such a pair counts once.
+    pub fn crossings(&self, origin: Vec3, dir: Vec3, t_max: f32) -> u32 {
+        let (ray, o, d) = self.to_bvh_ray(origin, dir, t_max);
         let mut hits: Vec<(f64, u32)> = Vec::new();
-        self.bvh.ray_traverse_anyhit(ray, |_, id| {
-            if let Some(t) = self.enter(o, d, id, f32::INFINITY) {
+        self.bvh.ray_traverse_anyhit(ray, |r, id| {
+            if let Some(t) = self.enter(o, d, id, r.tmax) {
                 hits.push((t, self.id(id)));
             }
         });

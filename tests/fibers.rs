@@ -140,7 +140,7 @@ fn a_ray_inside_a_fiber_crosses_no_joint() {
         let hit = fibers.closest_hit(origin, d, 10.0);
         assert!(hit.is_none(), "a ray from {origin} along {d} hit {hit:?}");
         assert!(!fibers.occluded(origin, d, 10.0));
-        assert_eq!(fibers.crossings(origin, d), 0);
+        assert_eq!(fibers.crossings(origin, d, f32::INFINITY), 0);
     }
     assert!(near_joint > 100, "too few origins inside the next segment's end sphere: {near_joint}");
 

@@ -71,7 +71,7 @@ fn compare(file: &SceneFile, settings: LookupSettings, k: usize) -> [(f64, f64);
             let f_s = fiber.eval(local(sun_d)).luminance();
             add(1, f_s, lit, rays);
             if rays == 0.0 {
-                add(6, f_s, n / -(-n).exp_m1(), scene.fibers.crossings(from, sun_d.as_vec3()) as f64);
+                add(6, f_s, n / -(-n).exp_m1(), scene.fibers.crossings(from, sun_d.as_vec3(), f32::INFINITY) as f64);
                 add(7, f_s, n, grid.fibers_crossed(p, sun_d, f64::INFINITY));
             }
             let off_sun = |d: DVec3| d.dot(sun_d) < sun.half_angle.cos();
@@ -83,7 +83,7 @@ fn compare(file: &SceneFile, settings: LookupSettings, k: usize) -> [(f64, f64);
                         let (weight, rays) = (s.weight().luminance(), escapes(d));
                         add(2, weight, lit, rays);
                         if rays == 0.0 {
-                            let crossings = scene.fibers.crossings(from, d.as_vec3()) as f64;
+                            let crossings = scene.fibers.crossings(from, d.as_vec3(), f32::INFINITY) as f64;
                             add(4, weight, n / -(-n).exp_m1(), crossings);
                             add(5, weight, n, grid.fibers_crossed(p, d, f64::INFINITY));
                         }

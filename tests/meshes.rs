@@ -5,6 +5,7 @@
 mod common;
 
 use common::{cache, dualhair};
+use dualhair::compare::hair_pixels;
 use dualhair::dual::{DualModel, crossing_mean, forward_cosine};
 use dualhair::film::Film;
 use dualhair::meshes::{Mesh, Meshes, read_obj};
@@ -315,6 +316,39 @@ fn a_white_furnace_with_a_white_mesh_is_white() {
     // And a mesh pixel far from 1 would show here (the floor in the corners).
     let worst = film.mean.iter().map(|p| (p.luminance() - 1.0).abs()).fold(0.0, f64::max);
     assert!(worst < 0.5, "a pixel at {worst} from 1");
+}
+
+#[test]
+fn a_white_wall_behind_the_hair_sends_back_the_sky_it_hides() {
+    // A white sky and a white wall just behind the blond swatch: the wall hides half the sky from
+    // the hair but sends back about as much light as it hides (less where the hair shadows it,
+    // more with what the hair scatters onto it), so in `path` the hair keeps 97% of its light
+    // over fully covered pixels. `dual` that counted the wall as dark kept 86% with rays; with
+    // the wall's light gathered it keeps 92% (rays) and 99% (lookup).
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "wall.obj",
+        &quad_obj([[-3.0, 0.15, -3.0], [3.0, 0.15, -3.0], [3.0, 0.15, 3.0], [-3.0, 0.15, 3.0]]),
+    );
+    let kept = |integrator: IntegratorKind, shadows: ShadowMode| {
+        let [without, with] = ["[]", r#"[{"file": "wall.obj", "color": [1, 1, 1]}]"#].map(|meshes| {
+            let mut file = swatch_scene(dir.path(), [0.0, -1.0, 0.0], meshes, integrator, 64);
+            file.lights = serde_json::from_str(r#"{"environment": {"color": [1, 1, 1]}}"#).unwrap();
+            file.fiber = serde_json::from_str(r#"{"absorption": {"melanin": {"eumelanin": 0.3}}}"#).unwrap();
+            file.dual.shadows = shadows;
+            let film = render_scene(&file.build().unwrap(), &cache(), false).unwrap();
+            let hair = hair_pixels(&film);
+            hair.iter().map(|&i| film.mean[i].luminance()).sum::<f64>() / hair.len() as f64
+        });
+        with / without
+    };
+    let path = kept(IntegratorKind::Path, ShadowMode::Rays);
+    for shadows in [ShadowMode::Rays, ShadowMode::Lookup] {
+        let dual = kept(IntegratorKind::Dual, shadows);
+        println!("hair's light kept with the wall: path {path:.3}, dual ({shadows:?}) {dual:.3}");
+        assert!((dual - path).abs() < 0.07, "dual ({shadows:?}) keeps {dual} of its light, path {path}");
+    }
 }
 
 #[test]

@@ -28,7 +28,8 @@
 //! DUALHAIR_ACC_DUAL_SPP (default 2048), DUALHAIR_ACC_MODELS (comma-separated variants, each
 //! `NAME[@D_F/D_B][:SHADOWS]`, NAME as for `render --dual-model`, SHADOWS `lookup` (default) or `rays`;
 //! default `zinke2008@0.7/0.7:rays,two_stream:rays,two_stream`),
-//! DUALHAIR_ACC_GROOMS (comma-separated .hair files), DUALHAIR_ACC_LOOKUP (`dual.lookup` as JSON), DUALHAIR_ACC_SEEDS (default 1: with more,
+//! DUALHAIR_ACC_GROOMS (comma-separated .hair files), DUALHAIR_ACC_LOOKUP (`dual.lookup` as JSON),
+//! DUALHAIR_ACC_SAMPLING (`dual`'s direction sampling, as for `render --sampling`), DUALHAIR_ACC_SEEDS (default 1: with more,
 //! each `dual` render is repeated with seeds 1, 2, ..., its mean ratio is the mean over seeds with
 //! its standard error, and a model rendered both with `rays` and with the lookup gets a line
 //! `lookup / rays` with the mean and standard error over seeds of the ratio of the two renders of
@@ -42,7 +43,7 @@ use dualhair::dual::DualModel;
 use dualhair::film::Film;
 use dualhair::integrator::Term;
 use dualhair::render_cmd::{DualInputs, render_prepared};
-use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, OneOrRgb, SceneFile, ShadowMode, SunSpec};
+use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, OneOrRgb, Sampling, SceneFile, ShadowMode, SunSpec};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -178,6 +179,9 @@ fn main() {
                 dual.render.seed = 1;
                 dual.dual.model = <DualModel as clap::ValueEnum>::from_str(model, true).unwrap();
                 dual.dual.shadows = <ShadowMode as clap::ValueEnum>::from_str(shadows, true).unwrap();
+                if let Ok(sampling) = std::env::var("DUALHAIR_ACC_SAMPLING") {
+                    dual.render.sampling = Some(<Sampling as clap::ValueEnum>::from_str(&sampling, true).unwrap());
+                }
                 if let Ok(settings) = std::env::var("DUALHAIR_ACC_LOOKUP") {
                     dual.dual.lookup = serde_json::from_str(&settings).unwrap();
                 }

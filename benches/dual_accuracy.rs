@@ -18,6 +18,9 @@
 //!   `dual`'s time to match it; below 1 `dual` has no reason to exist on that row. Renders are
 //!   timed alone, one after another, caches warm.
 //!
+//! The `path` line's error column is the test render's own error (all noise), to compare with
+//! `dual`'s noise part at the same spp.
+//!
 //! With DUALHAIR_ACC_DEFAULT=1 the bundled default scene (`scenes/default.json`, its own lights)
 //! is a row too.
 //!
@@ -156,7 +159,6 @@ fn main() {
             let any_hair: Vec<usize> = (0..reference.alpha.len()).filter(|&i| reference.alpha[i] > 0.0).collect();
             let total = mean_luminance(&reference, &pixels);
             let shares = |film: &Film| term_means(film, &pixels).map(|t| format!("{:.3}", t / total)).join(" | ");
-            println!("| {hair} | {light} | path | - | {} | 1 | - | 1 | - |", shares(&reference));
             // `path`'s own error from its error E against the truth (both unbiased, independent
             // seeds): E^2 = e^2 (1 + P / R), the truth's error e sqrt(P / R), removed from every
             // error measured against it. The truth's variance estimates are no help under a back
@@ -168,6 +170,10 @@ fn main() {
             let path_error = block_relative_rmse(&test, &reference, 4).map(|(e, _)| e / (1.0 + ratio).sqrt());
             let truth_error = path_error.unwrap_or(0.0) * ratio.sqrt();
             let own = |e: f64| (e * e - truth_error * truth_error).max(0.0).sqrt();
+            // In the error column, `path`'s own error at the test's spp: all noise, to set beside
+            // `dual`'s noise at its spp.
+            let path_at = path_error.map_or("-".into(), |e| format!("{:.1}% at {path_spp} spp", 100.0 * e));
+            println!("| {hair} | {light} | path | - | {} | 1 | {path_at} | 1 | - |", shares(&reference));
             // Each model's mean ratio per seed, by (model with factors, shadows).
             let mut ratios: Vec<((&str, &str), Vec<f64>)> = Vec::new();
             for spec in models.split(',') {

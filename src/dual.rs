@@ -400,7 +400,7 @@ where
 
     /// F(wo, wi) toward the light direction `wi` (local) = `d` (world), split into its terms,
     /// for light from as far as `reach` (world units): infinity for the lights, a mesh's distance
-    /// for the light it sends back.
+    /// for the light it sends back. The caller has found no mesh in the way before `reach`.
     fn f(&self, wi: DVec3, d: DVec3, reach: f32) -> Split {
         let dual = self.dual;
         let (sin_i, cos_i) = sin_cos_theta(wi);
@@ -410,13 +410,7 @@ where
         // against F_scatter of the mean count n. Without an entry, rays.
         let entry = match dual.shadows {
             // The maps hold the hair toward lights at infinity; a mesh's light comes by rays.
-            Shadows::Lookup(lookup) if reach == f32::INFINITY => {
-                // A mesh in the way (the head) is opaque; the maps hold the hair alone.
-                if !dual.world.meshes.is_empty() && dual.world.meshes.occluded(self.from, d.as_vec3(), f32::INFINITY) {
-                    return Split::default();
-                }
-                lookup.toward(self.from.as_dvec3(), self.radius, d)
-            }
+            Shadows::Lookup(lookup) if reach == f32::INFINITY => lookup.toward(self.from.as_dvec3(), self.radius, d),
             _ => None,
         };
         // Fully lit from the forward half (no backscatter there): F_direct is f_s alone, and the
@@ -451,10 +445,6 @@ where
     /// T_f wants no deflection factor: see [`DualScattering::deflection`]).
     fn f_rays(&self, inc: &Incoming, d: DVec3, reach: f32) -> Split {
         let dual = self.dual;
-        // A mesh in the way (the head) is opaque: no light of this direction reaches the fiber.
-        if dual.world.meshes.occluded(self.from, d.as_vec3(), reach) {
-            return Split::default();
-        }
         let fibers = dual.world.fibers;
         let count = (dual.model.transmittance_kind() == Transmittance::Fibers)
             .then(|| fibers.crossings(self.from, d.as_vec3(), reach) as f64);
@@ -569,6 +559,11 @@ where
     /// Radiance from a light sample, MIS-weighted against F's sampler, added to `radiance` and
     /// its terms.
     fn light(&self, s: &LightSample, radiance: &mut Rgb, terms: &mut Terms) {
+        // A mesh in the way (the head) is opaque: no light of this direction reaches the fiber
+        // (the maps and the density grid hold the hair alone).
+        if self.dual.world.meshes.occluded(self.from, s.wi.as_vec3(), f32::INFINITY) {
+            return;
+        }
         let wi = self.frame.to_local(s.wi);
         let split = self.f(wi, s.wi, f32::INFINITY);
         let f = split.total();

@@ -21,6 +21,10 @@
 //! The `path` line's error column is the test render's own error (all noise), to compare with
 //! `dual`'s noise part at the same spp.
 //!
+//! On stderr, for each `dual` render, where its terms go wrong: the fully covered blocks in thirds
+//! by the reference's share of single scattering (least to most directly lit), each term's light
+//! over the reference's in each third.
+//!
 //! With DUALHAIR_ACC_DEFAULT=1 the bundled default scene (`scenes/default.json`, its own lights)
 //! is a row too.
 //!
@@ -31,17 +35,22 @@
 //! DUALHAIR_ACC_DUAL_SPP (default 2048), DUALHAIR_ACC_MODELS (comma-separated variants, each
 //! `NAME[@D_F/D_B][:SHADOWS]`, NAME as for `render --dual-model`, SHADOWS `lookup` (default) or `rays`;
 //! default `zinke2008@0.7/0.7:rays,two_stream:rays,two_stream`),
-//! DUALHAIR_ACC_GROOMS (comma-separated .hair files), DUALHAIR_ACC_LOOKUP (`dual.lookup` as JSON),
+//! DUALHAIR_ACC_GROOMS (comma-separated .hair files), DUALHAIR_ACC_DUAL (a JSON object whose keys replace those of
+//! the scene's `dual` section, e.g. `{"light_samples": 4}`),
+//! DUALHAIR_ACC_KEEP=1 (write each `dual` render and the test `path` render to `target/dual-accuracy/kept/`),
 //! DUALHAIR_ACC_SAMPLING (`dual`'s direction sampling, as for `render --sampling`), DUALHAIR_ACC_SEEDS (default 1: with more,
 //! each `dual` render is repeated with seeds 1, 2, ..., its mean ratio is the mean over seeds with
-//! its standard error, and a model rendered both with `rays` and with the lookup gets a line
+//! its standard error, its noise part is measured from the block differences of seeds 1 and 2
+//! (the variance channels miss the rare bright samples of a back sun) and `path`'s from two test
+//! renders with the same seeds the same way (single scattering is the same
+//! estimator with the same random numbers in both), and a model rendered both with `rays` and with the lookup gets a line
 //! `lookup / rays` with the mean and standard error over seeds of the ratio of the two renders of
 //! one seed: same seed, same light directions, so their difference is the lookup's alone).
 //! References are kept in `target/dual-accuracy/` and reused by name, size and spp: delete that
 //! folder after changing the path tracer or a scene.
 
 use dualhair::cache::Cache;
-use dualhair::compare::{block_relative_rmse, hair_pixels, mean_luminance, relative_rmse};
+use dualhair::compare::{block_relative_difference, block_relative_rmse, hair_pixels, mean_luminance, relative_rmse};
 use dualhair::dual::DualModel;
 use dualhair::film::Film;
 use dualhair::integrator::Term;
@@ -172,7 +181,18 @@ fn main() {
             let own = |e: f64| (e * e - truth_error * truth_error).max(0.0).sqrt();
             // In the error column, `path`'s own error at the test's spp: all noise, to set beside
             // `dual`'s noise at its spp.
-            let path_at = path_error.map_or("-".into(), |e| format!("{:.1}% at {path_spp} spp", 100.0 * e));
+            let mut path_at = path_error.map_or("-".into(), |e| format!("{:.1}% at {path_spp} spp", 100.0 * e));
+            // With several seeds, `path`'s noise at that spp as `dual`'s is measured: from the
+            // difference of two renders with `dual`'s seeds 1 and 2, whose single scattering is
+            // `dual`'s sample for sample, so that the two noises differ by the rest alone.
+            if env_or("DUALHAIR_ACC_SEEDS", 1u64) > 1 {
+                let mut other = path.clone();
+                (other.render.spp, other.render.seed) = (path_spp, 1);
+                let other = timed_render(&other, &cache, false).0;
+                if let Some(d) = block_relative_difference(&test, &other, &reference, 4) {
+                    path_at += &format!(" (noise {:.1}%)", 100.0 * d / 2f64.sqrt());
+                }
+            }
             println!("| {hair} | {light} | path | - | {} | 1 | {path_at} | 1 | - |", shares(&reference));
             // Each model's mean ratio per seed, by (model with factors, shadows).
             let mut ratios: Vec<((&str, &str), Vec<f64>)> = Vec::new();
@@ -188,24 +208,52 @@ fn main() {
                 if let Ok(sampling) = std::env::var("DUALHAIR_ACC_SAMPLING") {
                     dual.render.sampling = Some(<Sampling as clap::ValueEnum>::from_str(&sampling, true).unwrap());
                 }
-                if let Ok(settings) = std::env::var("DUALHAIR_ACC_LOOKUP") {
-                    dual.dual.lookup = serde_json::from_str(&settings).unwrap();
+                if let Ok(settings) = std::env::var("DUALHAIR_ACC_DUAL") {
+                    // Each key replaces that field of the scene's `dual` section.
+                    let mut spec = serde_json::to_value(&dual.dual).unwrap();
+                    let serde_json::Value::Object(fields) = serde_json::from_str(&settings).unwrap() else {
+                        panic!("DUALHAIR_ACC_DUAL must be a JSON object, got {settings}")
+                    };
+                    spec.as_object_mut().unwrap().extend(fields);
+                    dual.dual = serde_json::from_value(spec).unwrap();
                 }
                 if let Some((f, b)) = d.split_once('/') {
                     (dual.dual.d_f, dual.dual.d_b) = (f.parse().unwrap(), b.parse().unwrap());
                 }
                 let (film, secs) = timed_render(&dual, &cache, true);
-                // The error's bias part: what the images' noise does not explain.
-                let blocks = block_relative_rmse(&film, &reference, 4).map_or("no full block".into(), |(e, n)| {
-                    let bias = (e * e - n * n).max(0.0).sqrt();
-                    format!("{:.1}% ({:.1}%), bias {:.1}%", 100.0 * e, 100.0 * n, 100.0 * bias)
-                });
-                let all = mean_luminance(&film, &any_hair) / mean_luminance(&reference, &any_hair);
+                if std::env::var("DUALHAIR_ACC_KEEP").is_ok_and(|v| v == "1") {
+                    let kept = refs.join("kept");
+                    std::fs::create_dir_all(&kept).unwrap();
+                    let stem = format!("{}-{spec}", name.replace(['/', ' '], "_")).replace([':', '@', '/'], "_");
+                    film.write_exr(&kept.join(format!("{stem}.exr")), true).unwrap();
+                    test.write_exr(&kept.join(format!("{}-path.exr", name.replace(['/', ' '], "_"))), true).unwrap();
+                }
                 let mut seeds = vec![mean_luminance(&film, &pixels) / total];
+                let mut second = None;
                 for seed in 2..=env_or("DUALHAIR_ACC_SEEDS", 1u64) {
                     dual.render.seed = seed;
-                    seeds.push(mean_luminance(&timed_render(&dual, &cache, false).0, &pixels) / total);
+                    let other = timed_render(&dual, &cache, true).0;
+                    seeds.push(mean_luminance(&other, &pixels) / total);
+                    if std::env::var("DUALHAIR_ACC_KEEP").is_ok_and(|v| v == "1") {
+                        let stem = format!("{}-{spec}-seed{seed}", name.replace(['/', ' '], "_"))
+                            .replace([':', '@', '/'], "_");
+                        other.write_exr(&refs.join("kept").join(format!("{stem}.exr")), true).unwrap();
+                    }
+                    second.get_or_insert(other);
                 }
+                // The error's bias part: what the noise does not explain. With a second seed the
+                // noise is measured from the two renders' difference; else the variance channels
+                // estimate it (too low where a few bright samples dominate, a back sun).
+                let blocks = block_relative_rmse(&film, &reference, 4).map_or("no full block".into(), |(e, n)| {
+                    let (noise, truth) =
+                        match second.as_ref().and_then(|s| block_relative_difference(&film, s, &reference, 4)) {
+                            Some(d) => (d / 2f64.sqrt(), truth_error),
+                            None => (n, 0.0),
+                        };
+                    let bias = (e * e - noise * noise - truth * truth).max(0.0).sqrt();
+                    format!("{:.1}% ({:.1}%), bias {:.1}%", 100.0 * e, 100.0 * noise, 100.0 * bias)
+                });
+                let all = mean_luminance(&film, &any_hair) / mean_luminance(&reference, &any_hair);
                 let equal_time = match (path_error, block_relative_rmse(&film, &reference, 4)) {
                     (Some(p), Some((e, _))) => format!("{:.2}", p * (path_secs / secs).sqrt() / own(e)),
                     _ => "-".into(),
@@ -218,6 +266,7 @@ fn main() {
                     mean_and_error(&seeds),
                 );
                 ratios.push(((spec_model, shadows), seeds));
+                eprintln!("  {name} {spec}: {}", by_lit_share(&film, &reference));
                 eprintln!(
                     "  {name} {spec}: {secs:.1} s (path at {path_spp} spp {path_secs:.1} s), {} hair pixels",
                     pixels.len()
@@ -243,6 +292,46 @@ fn main() {
             }
         }
     }
+}
+
+/// Where in the image `dual`'s terms go wrong: the 4x4 blocks the reference covers fully, in
+/// thirds by the share of single scattering in the reference (low: light that crossed hair;
+/// high: the directly lit edge), with `film`'s forward and backward (one or more events) light
+/// over the reference's in each third.
+fn by_lit_share(film: &Film, reference: &Film) -> String {
+    let full: std::collections::HashSet<usize> = hair_pixels(reference).into_iter().collect();
+    let w = reference.width;
+    let mut blocks: Vec<(f64, [f64; 4], [f64; 4])> = Vec::new();
+    for by in 0..reference.height / 4 {
+        for bx in 0..w / 4 {
+            let pixels: Vec<usize> = (0..16).map(|k| (4 * by + k / 4) * w + 4 * bx + k % 4).collect();
+            if pixels.iter().all(|i| full.contains(i)) {
+                let (f, r) = (term_means(film, &pixels), term_means(reference, &pixels));
+                blocks.push((r[0] / r.iter().sum::<f64>().max(1e-300), f, r));
+            }
+        }
+    }
+    if blocks.len() < 3 {
+        return "too few full blocks for thirds".into();
+    }
+    blocks.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let third = blocks.len() / 3;
+    let ratio = |part: &[(f64, [f64; 4], [f64; 4])], terms: &[usize]| {
+        let sum = |k: usize| {
+            part.iter().map(|b| terms.iter().map(|&t| if k == 0 { b.1[t] } else { b.2[t] }).sum::<f64>()).sum::<f64>()
+        };
+        format!("{:.2}", sum(0) / sum(1).max(1e-300))
+    };
+    let thirds = [&blocks[..third], &blocks[third..2 * third], &blocks[2 * third..]];
+    let row = |terms: &[usize]| thirds.map(|p| ratio(p, terms)).join("/");
+    format!(
+        "over path by thirds of {} blocks, least to most directly lit: total {}, single {}, forward {}, backward {}",
+        blocks.len(),
+        row(&[0, 1, 2, 3]),
+        row(&[0]),
+        row(&[1]),
+        row(&[2, 3])
+    )
 }
 
 /// "mean" of one value, "mean +- standard error of the mean" of several.

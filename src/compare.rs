@@ -94,6 +94,22 @@ pub fn block_relative_rmse(test: &Film, reference: &Film, block: usize) -> Optio
     Some((mse.sqrt() / mean, noise.sqrt() / mean))
 }
 
+/// Relative RMS of the difference of `a`'s and `b`'s `block` x `block` block means over the
+/// blocks `reference` covers fully, relative to `reference`'s mean there: for two renders that
+/// differ only in their seed, sqrt(2) times either one's noise, an estimate that, unlike the
+/// variance channels, holds where a few bright samples dominate a pixel (a back sun).
+pub fn block_relative_difference(a: &Film, b: &Film, reference: &Film, block: usize) -> Option<f64> {
+    let (a, b, r) =
+        (block_means(a, reference, block), block_means(b, reference, block), block_means(reference, reference, block));
+    if r.is_empty() {
+        return None;
+    }
+    let k = (3 * r.len()) as f64;
+    let mean = r.iter().map(|b| b.0.0.iter().sum::<f64>()).sum::<f64>() / k;
+    let mse = a.iter().zip(&b).map(|(a, b)| (a.0 - b.0).0.iter().map(|d| d * d).sum::<f64>()).sum::<f64>() / k;
+    Some(mse.sqrt() / mean)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -143,6 +159,11 @@ mod tests {
         assert!((noise - (2.0 * 0.75 / 4.0 / 3.0f64).sqrt() / 2.0).abs() < 1e-12, "{noise}");
         // No block covered fully: no measure.
         assert!(block_relative_rmse(&test, &reference, 4).is_none());
+        // Test against reference as the second image: the same block differences, relative to
+        // the reference's mean; the right block still left out.
+        let d = block_relative_difference(&test, &reference, &reference, 2).unwrap();
+        assert!((d - (5.0f64 / 3.0).sqrt() / 2.0).abs() < 1e-12, "{d}");
+        assert!(block_relative_difference(&test, &reference, &reference, 4).is_none());
     }
 
     #[test]

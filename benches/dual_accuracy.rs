@@ -221,24 +221,24 @@ fn main() {
                     (dual.dual.d_f, dual.dual.d_b) = (f.parse().unwrap(), b.parse().unwrap());
                 }
                 let (film, secs) = timed_render(&dual, &cache, true);
-                if std::env::var("DUALHAIR_ACC_KEEP").is_ok_and(|v| v == "1") {
-                    let kept = refs.join("kept");
-                    std::fs::create_dir_all(&kept).unwrap();
-                    let stem = format!("{}-{spec}", name.replace(['/', ' '], "_")).replace([':', '@', '/'], "_");
-                    film.write_exr(&kept.join(format!("{stem}.exr")), true).unwrap();
-                    test.write_exr(&kept.join(format!("{}-path.exr", name.replace(['/', ' '], "_"))), true).unwrap();
-                }
+                // The renders, by row and variant, for a closer look (DUALHAIR_ACC_KEEP=1).
+                let keep = |film: &Film, what: &str| {
+                    if std::env::var("DUALHAIR_ACC_KEEP").is_ok_and(|v| v == "1") {
+                        let kept = refs.join("kept");
+                        std::fs::create_dir_all(&kept).unwrap();
+                        let stem = format!("{name}-{what}").replace(['/', ' ', ':', '@'], "_");
+                        film.write_exr(&kept.join(format!("{stem}.exr")), true).unwrap();
+                    }
+                };
+                keep(&film, spec);
+                keep(&test, "path");
                 let mut seeds = vec![mean_luminance(&film, &pixels) / total];
                 let mut second = None;
                 for seed in 2..=env_or("DUALHAIR_ACC_SEEDS", 1u64) {
                     dual.render.seed = seed;
                     let other = timed_render(&dual, &cache, true).0;
                     seeds.push(mean_luminance(&other, &pixels) / total);
-                    if std::env::var("DUALHAIR_ACC_KEEP").is_ok_and(|v| v == "1") {
-                        let stem = format!("{}-{spec}-seed{seed}", name.replace(['/', ' '], "_"))
-                            .replace([':', '@', '/'], "_");
-                        other.write_exr(&refs.join("kept").join(format!("{stem}.exr")), true).unwrap();
-                    }
+                    keep(&other, &format!("{spec}-seed{seed}"));
                     second.get_or_insert(other);
                 }
                 // The error's bias part: what the noise does not explain. With a second seed the

@@ -93,7 +93,8 @@ impl Cache {
         Ok(tables)
     }
 
-    /// The density grid of some strands at a voxel size (automatic when `None`).
+    /// The density grid of some strands at a voxel size (automatic when `None`), with their
+    /// orientation ([`DensityGrid::with_orientation`]).
     pub fn density(&self, strands: &Strands, voxel_size: Option<f64>) -> Result<DensityGrid> {
         let size = voxel_size.unwrap_or_else(|| DensityGrid::auto_voxel_size(strands));
         let h = hash_strands(Fnv::new().bytes(&size.to_le_bytes()), strands);
@@ -101,7 +102,7 @@ impl Cache {
         if let Ok(grid) = read_vdb(&path, "density")
             && grid.voxel_size == size
         {
-            return Ok(grid);
+            return Ok(grid.with_orientation(strands));
         }
         let grid = DensityGrid::voxelize(strands, size);
         write_atomically(&path, |tmp| {
@@ -109,7 +110,7 @@ impl Cache {
             write_vdb(&mut w, &grid, "density")?;
             Ok(w.flush()?)
         })?;
-        Ok(grid)
+        Ok(grid.with_orientation(strands))
     }
 
     /// The forward-transmittance lookup of a scene's hair toward its lights; `progress` shows a

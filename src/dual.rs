@@ -296,10 +296,9 @@ pub struct DualScattering<'a, M> {
     /// The tables over the fibers a ray crosses ([`crossing_mean`]): what light passing through
     /// hair onto a mesh meets.
     pub crossing: [Rgb; 9],
-    /// The mean cosine of forward deflection the counts want (see [`DualModel::transmittance`]):
-    /// the fiber's ([`forward_cosine`]) for the lookup's counts, which run along the straight line
-    /// (they match the real crossings); 1 for the density grid's, measured to run about 30% above
-    /// them already (README, "The forward-transmittance lookup").
+    /// The mean cosine of forward deflection (see [`DualModel::transmittance`]): the fiber's
+    /// ([`forward_cosine`]). The lookup's counts and the density grid's (with the hair's
+    /// orientation) both count the fibers on the straight line to the light.
     pub deflection: Rgb,
 }
 
@@ -441,8 +440,7 @@ where
 
     /// F with a shadow ray to `reach`: fully lit when no fiber is in the way (a shadow ray
     /// through the real strands, or for `fibers` the real count of fibers crossed, Zinke's ray
-    /// shooting, being 0), else in shadow with the count the density grid's march gives (whose
-    /// T_f wants no deflection factor: see [`DualScattering::deflection`]).
+    /// shooting, being 0), else in shadow with the count the density grid's march gives.
     fn f_rays(&self, inc: &Incoming, d: DVec3, reach: f32) -> Split {
         let dual = self.dual;
         let fibers = dual.world.fibers;
@@ -456,7 +454,7 @@ where
             self.direct(inc, self.fiber.eval(inc.wi))
         } else {
             let n = count.unwrap_or_else(|| dual.grid.fibers_crossed(self.from.as_dvec3(), d, reach as f64));
-            self.scatter(inc, n, Rgb::ONE, |spread| self.fiber.eval_spread(inc.wi, spread))
+            self.scatter(inc, n, dual.deflection, |spread| self.fiber.eval_spread(inc.wi, spread))
         }
     }
 

@@ -15,7 +15,6 @@ use crate::transmittance::ForwardLookup;
 use anyhow::{Context, Result, anyhow, bail, ensure};
 use precompute::density::{DensityGrid, read_vdb};
 use precompute::fiber::{Fiber, ModelKind, UniformSampled};
-use precompute::spectrum::Rgb;
 use precompute::tables::Tables;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -177,7 +176,7 @@ impl DualInputs {
         let d = &scene.dual;
         let tables = cache.tables(&scene.fiber, d.d_b, progress)?;
         let grid = match &d.density_grid {
-            Some(path) => read_vdb(path, "density")?,
+            Some(path) => read_vdb(path, "density")?.with_orientation(&scene.strands),
             None => cache.density(&scene.strands, d.voxel_size)?,
         };
         let lookup = match d.shadows {
@@ -255,7 +254,7 @@ pub fn render_into(
             },
             light_samples: d.light_samples(&scene.lights),
             crossing: crossing_mean(&inputs.tables),
-            deflection: if inputs.lookup.is_some() { forward_cosine(&fiber) } else { Rgb::ONE },
+            deflection: forward_cosine(&fiber),
         };
         return Ok(render(&scene.camera, &dual, seed, sums, end, progress));
     }

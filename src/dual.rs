@@ -132,6 +132,18 @@ impl DualModel {
         self == DualModel::Zinke2008
     }
 
+    /// Whether the density grid's count takes the hair's orientation
+    /// ([`DensityGrid::fibers_crossed`]); Zinke's formulas read literally keep the thesis's count
+    /// of fibers across the ray ([`DensityGrid::fibers_across`]), for reproduction.
+    pub fn oriented_count(self) -> bool {
+        !matches!(self, DualModel::Zinke2008 | DualModel::DfOnce)
+    }
+
+    /// The density grid's mean count of fibers from `from` along `d` (unit) within `t_max`.
+    pub fn grid_count(self, grid: &DensityGrid, from: DVec3, d: DVec3, t_max: f64) -> f64 {
+        if self.oriented_count() { grid.fibers_crossed(from, d, t_max) } else { grid.fibers_across(from, d, t_max) }
+    }
+
     /// How the fibers toward the light are counted and turned into T_f.
     pub fn transmittance_kind(self) -> Transmittance {
         match self {
@@ -453,7 +465,7 @@ where
         if lit {
             self.direct(inc, self.fiber.eval(inc.wi))
         } else {
-            let n = count.unwrap_or_else(|| dual.grid.fibers_crossed(self.from.as_dvec3(), d, reach as f64));
+            let n = count.unwrap_or_else(|| dual.model.grid_count(dual.grid, self.from.as_dvec3(), d, reach as f64));
             self.scatter(inc, n, dual.deflection, |spread| self.fiber.eval_spread(inc.wi, spread))
         }
     }
@@ -588,7 +600,7 @@ impl<M> DualScattering<'_, M> {
             Shadows::Lookup(lookup) => lookup.toward(from.as_dvec3(), 0.0, d).unwrap_or((1.0, 0.0)),
             Shadows::Rays => match self.world.fibers.occluded(from, d.as_vec3(), f32::INFINITY) {
                 false => (1.0, 0.0),
-                true => (0.0, self.grid.fibers_crossed(from.as_dvec3(), d, f64::INFINITY)),
+                true => (0.0, self.model.grid_count(self.grid, from.as_dvec3(), d, f64::INFINITY)),
             },
         };
         if lit >= 1.0 || self.d_f == 0.0 {

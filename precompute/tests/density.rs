@@ -240,6 +240,8 @@ fn oriented_count_matches_the_real_crossings_of_parallel_fibers() {
             let (got, want) = (grid.fibers_crossed(origin, dir, 0.8), plain.fibers_crossed(origin, dir, 0.8));
             // The tangents come from f32 points: about 1e-6 of relative error.
             assert!((got - want * a.sin()).abs() <= 1e-5 * want, "{angle} deg: {got} vs {want} sin a");
+            // The thesis's count, which Zinke's formulas read literally keep, ignores it.
+            assert_eq!(grid.fibers_across(origin, dir, 0.8), want);
             oriented += got;
             // Fibers whose axis passes within r of the ray piece.
             real += strands

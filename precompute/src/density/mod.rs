@@ -228,6 +228,17 @@ impl DensityGrid {
     /// unit length; [`DensityGrid::across`]), per brick. `t_max` may be infinite; the march
     /// stops past the bricks.
     pub fn fibers_crossed(&self, origin: DVec3, dir: DVec3, t_max: f64) -> f64 {
+        self.march(origin, dir, t_max, true)
+    }
+
+    /// [`DensityGrid::fibers_crossed`] with every fiber taken as across the ray, whatever the
+    /// orientation: the count of Zinke et al. 2008 and Lemein's thesis (section 5.2), 4/pi of
+    /// the real count for fibers of random orientation.
+    pub fn fibers_across(&self, origin: DVec3, dir: DVec3, t_max: f64) -> f64 {
+        self.march(origin, dir, t_max, false)
+    }
+
+    fn march(&self, origin: DVec3, dir: DVec3, t_max: f64, oriented: bool) -> f64 {
         let Some((lo, hi)) = self.bounds else { return 0.0 };
         // Clip the ray to the bounds of the stored bricks (slab test).
         let (mut t0, mut t1) = (0.0f64, t_max);
@@ -254,7 +265,7 @@ impl DensityGrid {
             let (p, q) = (a.lerp(b, s0), a.lerp(b, s1));
             let len = (t1 - t0) * (s1 - s0);
             let base = key.map(|c| c * BRICK);
-            let across = self.across(key, dir);
+            let across = if oriented { self.across(key, dir) } else { 1.0 };
             traverse(p, q, self.voxel_size, |v, u0, u1| {
                 // Rounding can step the piece's ends into a neighbouring brick's voxel for a
                 // length of order 1e-16 of the piece: that sliver counts in the nearest voxel here.

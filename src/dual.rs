@@ -437,11 +437,11 @@ where
             return self.direct(&inc, self.fiber.eval(wi));
         }
         if lit <= 0.0 {
-            return self.scatter(&inc, n, dual.deflection, |spread| self.fiber.eval_spread(wi, spread));
+            return self.scatter(&inc, n, |spread| self.fiber.eval_spread(wi, spread));
         }
         // Partly lit: f_s and f_s^G share the work of the direction.
         let mut f_s = None;
-        let scatter = self.scatter(&inc, n, dual.deflection, |spread| {
+        let scatter = self.scatter(&inc, n, |spread| {
             let (direct, spread) = self.fiber.eval_both(wi, spread);
             f_s = Some(direct);
             spread
@@ -466,7 +466,7 @@ where
             self.direct(inc, self.fiber.eval(inc.wi))
         } else {
             let n = count.unwrap_or_else(|| dual.model.grid_count(dual.grid, self.from.as_dvec3(), d, reach as f64));
-            self.scatter(inc, n, dual.deflection, |spread| self.fiber.eval_spread(inc.wi, spread))
+            self.scatter(inc, n, |spread| self.fiber.eval_spread(inc.wi, spread))
         }
     }
 
@@ -485,14 +485,14 @@ where
     /// the way (directFraction = 0), with T_f and sigma_f^2 = n' beta_f^2 as the model says
     /// (thesis eqs. 3.18 and 3.20 for `zinke2008`: T_f = a_f^n, n' = n, k = 2). `f_spread` gives
     /// f_s^G for a spread (not called when d_f = 0).
-    fn scatter(&self, inc: &Incoming, n: f64, deflection: Rgb, f_spread: impl FnOnce(Rgb) -> Rgb) -> Split {
+    fn scatter(&self, inc: &Incoming, n: f64, f_spread: impl FnOnce(Rgb) -> Rgb) -> Split {
         let dual = self.dual;
         if dual.d_f == 0.0 {
             return Split::default();
         }
         let (model, row) = (dual.model, &inc.row);
         let a_f = row[Quantity::AF as usize];
-        let (t_f, mean_n) = model.transmittance(a_f, row[Quantity::AB as usize], n, deflection);
+        let (t_f, mean_n) = model.transmittance(a_f, row[Quantity::AB as usize], n, dual.deflection);
         let var_f = Rgb(row[Quantity::BetaF as usize].0.map(|b| mean_n * b * b));
         let scale = t_f * if model.d_f_twice() { dual.d_f * dual.d_f } else { dual.d_f };
         let mut split = Split { forward: scale * f_spread(var_f * 4.0), ..Split::default() };

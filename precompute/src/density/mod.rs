@@ -157,7 +157,6 @@ impl DensityGrid {
     /// stored in its file: OpenVDB's density grid has no place for it.
     pub fn with_orientation(mut self, strands: &Strands) -> DensityGrid {
         let mut sums: FxHashMap<[i32; 3], [f64; 6]> = FxHashMap::default();
-        let brick = self.voxel_size * BRICK as f64;
         for s in strands.segments() {
             let (a, b) = (s.a.as_dvec3(), s.b.as_dvec3());
             let (d, len) = (b - a, (b - a).length());
@@ -165,7 +164,7 @@ impl DensityGrid {
                 continue;
             }
             // len t t^T = d d^T / len.
-            let key = (0.5 * (a + b) / brick).floor().as_ivec3().to_array();
+            let (key, _) = brick_of((0.5 * (a + b) / self.voxel_size).floor().as_ivec3().to_array());
             let m = [d.x * d.x, d.y * d.y, d.z * d.z, d.x * d.y, d.x * d.z, d.y * d.z].map(|v| v / len);
             let sum = sums.entry(key).or_default();
             (0..6).for_each(|k| sum[k] += m[k]);

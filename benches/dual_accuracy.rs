@@ -50,7 +50,9 @@
 //! folder after changing the path tracer or a scene.
 
 use dualhair::cache::Cache;
-use dualhair::compare::{block_relative_difference, block_relative_rmse, hair_pixels, mean_luminance, relative_rmse};
+use dualhair::compare::{
+    block_relative_difference, block_relative_rmse, hair_pixels, mean_luminance, rectangle, relative_rmse,
+};
 use dualhair::dual::DualModel;
 use dualhair::film::Film;
 use dualhair::integrator::Term;
@@ -123,6 +125,7 @@ fn main() {
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     let path_spp: u32 = env_or("DUALHAIR_ACC_PATH_SPP", dual_spp);
+    let seed_count: u64 = env_or("DUALHAIR_ACC_SEEDS", 1);
     let mut hairs: Vec<(String, Option<PathBuf>)> = ["blond", "brown", "black"].map(|h| (h.to_string(), None)).to_vec();
     if std::env::var("DUALHAIR_ACC_DEFAULT").is_ok_and(|v| v == "1") {
         hairs.push(("default".to_string(), None));
@@ -185,7 +188,7 @@ fn main() {
             // With several seeds, `path`'s noise at that spp as `dual`'s is measured: from the
             // difference of two renders with `dual`'s seeds 1 and 2, whose single scattering is
             // `dual`'s sample for sample, so that the two noises differ by the rest alone.
-            if env_or("DUALHAIR_ACC_SEEDS", 1u64) > 1 {
+            if seed_count > 1 {
                 let mut other = path.clone();
                 (other.render.spp, other.render.seed) = (path_spp, 1);
                 let other = timed_render(&other, &cache, false).0;
@@ -234,7 +237,7 @@ fn main() {
                 keep(&test, "path");
                 let mut seeds = vec![mean_luminance(&film, &pixels) / total];
                 let mut second = None;
-                for seed in 2..=env_or("DUALHAIR_ACC_SEEDS", 1u64) {
+                for seed in 2..=seed_count {
                     dual.render.seed = seed;
                     let other = timed_render(&dual, &cache, true).0;
                     seeds.push(mean_luminance(&other, &pixels) / total);
@@ -300,11 +303,10 @@ fn main() {
 /// over the reference's in each third.
 fn by_lit_share(film: &Film, reference: &Film) -> String {
     let full: std::collections::HashSet<usize> = hair_pixels(reference).into_iter().collect();
-    let w = reference.width;
     let mut blocks: Vec<(f64, [f64; 4], [f64; 4])> = Vec::new();
     for by in 0..reference.height / 4 {
-        for bx in 0..w / 4 {
-            let pixels: Vec<usize> = (0..16).map(|k| (4 * by + k / 4) * w + 4 * bx + k % 4).collect();
+        for bx in 0..reference.width / 4 {
+            let pixels = rectangle(reference, [4 * bx, 4 * by, 4 * bx + 4, 4 * by + 4]);
             if pixels.iter().all(|i| full.contains(i)) {
                 let (f, r) = (term_means(film, &pixels), term_means(reference, &pixels));
                 blocks.push((r[0] / r.iter().sum::<f64>().max(1e-300), f, r));

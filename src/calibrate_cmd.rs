@@ -20,6 +20,7 @@ use crate::film::Film;
 use crate::integrator::Term;
 use crate::output::write_atomically;
 use crate::render_cmd::{RenderArgs, render_scene, scene_file};
+use crate::say;
 use crate::scene::{IntegratorKind, SceneFile};
 use anyhow::{Context, Result, ensure};
 use std::path::PathBuf;
@@ -187,15 +188,15 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     let file = scene_file(&render)?;
     let reference = args.reference.as_deref().map(Film::read_exr).transpose()?;
     let c = calibrate(&file, reference, args.reference_spp, &Cache::default_location(), !args.quiet)?;
-    println!("fitted d_f = {:.3}, d_b = {:.3} (model {:?})", c.d_f, c.d_b, file.dual.model);
+    say!("fitted d_f = {:.3}, d_b = {:.3} (model {:?})", c.d_f, c.d_b, file.dual.model)?;
     let show = |(ratio, rmse): (f64, f64)| {
         format!("mean ratio dual/path {ratio:.3}, 4x4-block rel. RMSE {:.1}%", 100.0 * rmse)
     };
-    println!("before (d_f = {}, d_b = {}): {}", file.dual.d_f, file.dual.d_b, show(c.before));
-    println!("after: {}", show(c.after));
+    say!("before (d_f = {}, d_b = {}): {}", file.dual.d_f, file.dual.d_b, show(c.before))?;
+    say!("after: {}", show(c.after))?;
     if args.write {
         write_factors(&args.scene, c.d_f, c.d_b)?;
-        println!("wrote d_f and d_b into {}", args.scene.display());
+        say!("wrote d_f and d_b into {}", args.scene.display())?;
     }
     Ok(())
 }

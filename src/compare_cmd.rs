@@ -3,6 +3,7 @@
 
 use crate::compare::{block_relative_rmse, hair_pixels, mean_luminance, relative_noise, relative_rmse};
 use crate::film::Film;
+use crate::say;
 use anyhow::{Result, bail, ensure};
 use std::path::PathBuf;
 
@@ -55,6 +56,6 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         "block_rel_rmse": blocks.map(|b| b.0),
         "block_rel_noise": blocks.map(|b| b.1),
     });
-    println!("{}", serde_json::to_string_pretty(&report)?);
+    say!("{}", serde_json::to_string_pretty(&report)?)?;
     Ok(())
 }

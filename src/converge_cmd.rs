@@ -22,6 +22,7 @@ use crate::interrupt::{self, Interrupted};
 use crate::output::write_atomically;
 use crate::plot::register_fonts;
 use crate::render_cmd::{DualInputs, Part, RenderArgs, render_prepared, scene_file};
+use crate::say;
 use crate::scene::{IntegratorKind, MAX_LIGHT_SAMPLES, Sampling, Scene, SceneFile};
 use anyhow::{Context, Result, anyhow, bail, ensure};
 use clap::ValueEnum;
@@ -387,7 +388,7 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
         let record = json!({"part": [part.k, part.n], "args": args});
         let path = args.output.join(format!("part-{}-of-{}.json", part.k, part.n));
         write_atomically(&path, |tmp| Ok(std::fs::write(tmp, serde_json::to_vec_pretty(&record)?)?))?;
-        println!(
+        say!(
             "part {}/{}: {} of the {} renders done in {}; when every part is done, `dualhair merge` their folders \
              (or rerun without --part if the parts share this folder)",
             part.k,
@@ -395,7 +396,7 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
             mine.len(),
             all.len(),
             args.output.display()
-        );
+        )?;
         return Ok(());
     }
     if !args.measure_only {
@@ -462,13 +463,13 @@ pub fn run(args: &ConvergeArgs) -> Result<()> {
     }
     let summary = Summary { args, truth: &truth, truth_noise, pixels: pixels.len(), rows: &rows };
     summary.write(&args.output)?;
-    println!(
+    say!(
         "{} renders ({reused} reused), truth {truth_method} at {truth_spp} spp (noise {truth_noise:.3e} in MSE units), \
          {} pixels measured; wrote {}",
         jobs.len() + 1,
         pixels.len(),
         args.output.display()
-    );
+    )?;
     Ok(())
 }
 

@@ -3,6 +3,7 @@
 //! or gzipped `.hair.gz` (Cem Yuksel's format: points, and thickness as a diameter per point).
 
 use crate::output::write_atomically;
+use crate::say;
 use crate::scene::SceneFile;
 use anyhow::{Context, Result, bail};
 use precompute::strands::{HairFormat, write_hair};
@@ -66,12 +67,12 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
         Ok(())
     })
     .with_context(|| format!("{}", args.output.display()))?;
-    println!(
+    say!(
         "wrote {}: {} strands, {} points (from {})",
         args.output.display(),
         strands.strand_count(),
         strands.points.len(),
         args.input.display()
-    );
+    )?;
     Ok(())
 }

@@ -4,6 +4,7 @@
 use crate::fiber_args::FiberArgs;
 use crate::lobe_cmd::write_lobe_image;
 use crate::output::ImageFormat;
+use crate::say;
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use precompute::fiber::FiberParams;
@@ -126,7 +127,7 @@ pub fn run(args: &FibersimArgs) -> Result<()> {
         Lobe::All => &sim.total_image(),
     };
     write_lobe_image(&args.output, image, &title(args, &params), "luminance, exiting energy (1/sr)")?;
-    println!(
+    say!(
         "wrote {} ({}x{}, {}); {} rays in {:.2} s ({:.2} M rays/s)",
         args.output.display(),
         image.width,
@@ -135,24 +136,24 @@ pub fn run(args: &FibersimArgs) -> Result<()> {
         args.rays,
         seconds,
         args.rays as f64 / seconds / 1e6
-    );
-    report(&sim);
+    )?;
+    report(&sim)?;
     Ok(())
 }
 
 /// Prints where the light went, per RGB channel, with Monte Carlo standard errors.
-fn report(sim: &Simulation) {
+fn report(sim: &Simulation) -> std::io::Result<()> {
     let t = &sim.tally;
     let rgb = |v: Rgb| format!("{:.6} {:.6} {:.6}", v.0[0], v.0[1], v.0[2]);
-    println!("energy fractions (R G B channels):");
+    say!("energy fractions (R G B channels):")?;
     for (p, name) in ["R", "TT", "TRT", "rest"].iter().enumerate() {
-        println!("  {name:<16} {}  (std. error {})", rgb(t.lobes[p]), rgb(sim.std_error(p)));
+        say!("  {name:<16} {}  (std. error {})", rgb(t.lobes[p]), rgb(sim.std_error(p)))?;
     }
-    println!("  {:<16} {}", "total albedo", rgb(sim.albedo()));
-    println!("  {:<16} {}", "absorbed", rgb(t.absorbed));
-    println!("  {:<16} {}", "lost: Smith G", rgb(t.microfacet_loss));
-    println!("  {:<16} {}", "lost: scales", rgb(t.shading_loss));
-    println!("  {:<16} {}", "truncated", rgb(t.truncated));
+    say!("  {:<16} {}", "total albedo", rgb(sim.albedo()))?;
+    say!("  {:<16} {}", "absorbed", rgb(t.absorbed))?;
+    say!("  {:<16} {}", "lost: Smith G", rgb(t.microfacet_loss))?;
+    say!("  {:<16} {}", "lost: scales", rgb(t.shading_loss))?;
+    say!("  {:<16} {}", "truncated", rgb(t.truncated))
 }
 
 /// The chart's title: the lobe and the parameters.

@@ -9,6 +9,7 @@ pub mod calibrate_cmd;
 pub mod camera;
 pub mod compare;
 pub mod compare_cmd;
+pub mod console;
 pub mod converge_cmd;
 pub mod convert_cmd;
 pub mod dual;

@@ -3,6 +3,7 @@
 use crate::fiber_args::FiberArgs;
 use crate::output::{ImageFormat, write_exr, write_png};
 use crate::plot::HeatMap;
+use crate::say;
 use anyhow::{Result, bail};
 use precompute::fiber::{Fiber, ModelKind};
 use precompute::lobe::{LobeImage, lobe_image};
@@ -47,7 +48,7 @@ pub fn run(args: &LobeArgs) -> Result<()> {
     let image = lobe_image(&model, args.theta, args.width, args.height, &rule);
     write_lobe_image(&args.output, &image, &title(args), "luminance, h-averaged f cos (1/sr)")?;
     let a = image.albedo().0;
-    println!(
+    say!(
         "wrote {} ({}x{}); albedo (R, G, B) = ({:.4}, {:.4}, {:.4})",
         args.output.display(),
         image.width,
@@ -55,7 +56,7 @@ pub fn run(args: &LobeArgs) -> Result<()> {
         a[0],
         a[1],
         a[2]
-    );
+    )?;
     Ok(())
 }
 

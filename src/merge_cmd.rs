@@ -6,6 +6,7 @@ use crate::converge_cmd;
 use crate::film::Film;
 use crate::partial::{self, Partial};
 use crate::render::Sums;
+use crate::say;
 use anyhow::{Result, bail, ensure};
 use std::path::{Path, PathBuf};
 
@@ -52,7 +53,7 @@ pub fn run(args: &MergeArgs) -> Result<()> {
     }
     let png = exr.with_extension("png");
     film.write_png(&png, first.id.exposure)?;
-    println!(
+    say!(
         "merged {} parts into {} and {} ({}x{}, {} spp)",
         args.parts.len(),
         exr.display(),
@@ -60,7 +61,7 @@ pub fn run(args: &MergeArgs) -> Result<()> {
         film.width,
         film.height,
         film.spp
-    );
+    )?;
     Ok(())
 }
 

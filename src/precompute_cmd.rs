@@ -3,6 +3,7 @@
 
 use crate::fiber_args::FiberArgs;
 use crate::output::write_atomically;
+use crate::say;
 use crate::scene::SceneFile;
 use crate::tables_chart::draw_tables;
 use anyhow::{Context, Result, bail, ensure};
@@ -97,12 +98,12 @@ fn tables(args: &TablesArgs) -> Result<()> {
         })?,
         _ => draw_tables(&tables, &args.output)?,
     }
-    println!(
+    say!(
         "wrote {} ({} inclinations) in {:.2} s",
         args.output.display(),
         tables.theta.len(),
         start.elapsed().as_secs_f64()
-    );
+    )?;
     Ok(())
 }
 
@@ -143,10 +144,10 @@ fn density(args: &DensityArgs) -> Result<()> {
     let json = args.output.with_extension("json");
     write_atomically(&json, |tmp| Ok(std::fs::write(tmp, serde_json::to_string_pretty(&summary)?)?))
         .with_context(|| format!("{}: cannot write the summary", json.display()))?;
-    println!(
+    say!(
         "wrote {} and {}: voxel size {voxel_size:.5}, {voxels} voxels, voxelized in {seconds:.2} s",
         args.output.display(),
         json.display()
-    );
+    )?;
     Ok(())
 }

@@ -10,6 +10,7 @@ use crate::interrupt::{self, Interrupted};
 use crate::output::ImageFormat;
 use crate::partial::{self, RenderId};
 use crate::render::{Sums, render};
+use crate::say;
 use crate::scene::{IntegratorKind, Sampling, Scene, SceneFile, ShadowMode};
 use crate::transmittance::ForwardLookup;
 use anyhow::{Context, Result, anyhow, bail, ensure};
@@ -303,7 +304,7 @@ fn resume_from(
 ) -> Result<Sums> {
     let empty = Sums::empty(size.0, size.1, samples.start, aovs);
     if !exr.exists() {
-        println!("{}: nothing to resume yet; rendering from the start", exr.display());
+        say!("{}: nothing to resume yet; rendering from the start", exr.display())?;
         return Ok(empty);
     }
     let Some(partial) = partial::read(exr)? else {
@@ -371,7 +372,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     scene.render.terms = args.aovs;
     let cache = Cache::default_location();
     if let Some(why) = resolve_auto(&mut scene, &cache, !args.quiet)? {
-        println!("{why}");
+        say!("{why}")?;
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0))
@@ -418,7 +419,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         format!(" and {}", png.display())
     };
     let resumed = if resumed > 0 { format!(", {resumed} of them resumed") } else { String::new() };
-    println!(
+    say!(
         "wrote {}{png_note} ({}x{}, {} spp{resumed}, samples {}..{} of {}, {:?}): {} strands, setup {:.2} s, render {seconds:.2} s",
         exr.display(),
         film.width,
@@ -430,6 +431,6 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         scene.render.integrator,
         scene.strands.strand_count(),
         setup.as_secs_f64(),
-    );
+    )?;
     Ok(())
 }

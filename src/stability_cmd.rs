@@ -7,6 +7,7 @@
 use crate::output::write_atomically;
 use crate::output::write_png;
 use crate::plot::{CellMap, CellScale, HeatMap, heat_maps};
+use crate::say;
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use precompute::fibersim::FiberSim;
@@ -204,8 +205,8 @@ pub fn run(args: &StabilityArgs) -> Result<()> {
     charts(&args.output, &thetas, &slices, &slice_rows, &grid, &health_rows)?;
     let summary = summary(args, &grid, &health_rows, &slice_rows);
     write_atomically(&args.output.join("summary.md"), |tmp| Ok(std::fs::write(tmp, &summary)?))?;
-    println!("{summary}");
-    println!("wrote {}", args.output.display());
+    say!("{summary}")?;
+    say!("wrote {}", args.output.display())?;
     Ok(())
 }
 

@@ -5,6 +5,7 @@
 //! `$HOME/.cache/dualhair`. Entries are named by a 64-bit FNV-1a hash of their inputs, and a
 //! cached table also records its inputs, which are compared on load.
 
+use crate::memory;
 use crate::output::write_atomically;
 use crate::scene::Scene;
 use crate::transmittance::ForwardLookup;
@@ -104,6 +105,7 @@ impl Cache {
         {
             return Ok(grid.with_orientation(strands));
         }
+        memory::ensure_grid_fits(strands, size, "dual.voxel_size")?;
         let grid = DensityGrid::voxelize(strands, size);
         write_atomically(&path, |tmp| {
             let mut w = std::io::BufWriter::new(std::fs::File::create(tmp)?);

@@ -2,7 +2,7 @@
 //! Reads what scenes read (`.hair`, `.hair.gz`, the curves of `.pbrt`/`.pbrt.gz`), writes `.hair`
 //! or gzipped `.hair.gz` (Cem Yuksel's format: points, and thickness as a diameter per point).
 
-use crate::output::write_atomically;
+use crate::output::{ensure_writable, write_atomically};
 use crate::say;
 use crate::scene::SceneFile;
 use anyhow::{Context, Result, bail};
@@ -43,6 +43,7 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
         _ if name.ends_with(".hair") => false,
         _ => bail!("{}: convert writes .hair or .hair.gz", args.output.display()),
     };
+    ensure_writable(&args.output)?;
     if HairFormat::of(&args.input).is_none() {
         bail!("{}: not a hair file (.hair, .hair.gz, .pbrt or .pbrt.gz)", args.input.display());
     }

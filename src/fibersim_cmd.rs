@@ -3,7 +3,7 @@
 
 use crate::fiber_args::FiberArgs;
 use crate::lobe_cmd::write_lobe_image;
-use crate::output::ImageFormat;
+use crate::output::{ImageFormat, ensure_writable};
 use crate::say;
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -84,6 +84,7 @@ impl Lobe {
 
 /// Validates the flags, runs the simulation, writes the image and prints where the energy went.
 pub fn run(args: &FibersimArgs) -> Result<()> {
+    ensure_writable(&args.output)?;
     if !(-FRAC_PI_2..=FRAC_PI_2).contains(&args.theta) {
         bail!("--theta must be in [-pi/2, pi/2] radians, got {}", args.theta);
     }

@@ -3,7 +3,7 @@
 
 use crate::integrator::{Term, Terms};
 use crate::output::{write_atomically, write_png};
-use crate::render::Sums;
+use crate::render::{PixelSums, Sums, TermSums};
 use anyhow::{Context, Result, anyhow, ensure};
 use exr::prelude::*;
 use precompute::spectrum::Rgb;
@@ -47,6 +47,15 @@ pub struct Film {
 }
 
 impl Film {
+    /// Bytes one pixel of a render holds at its peak: its sums, its film, and the EXR's 32-bit
+    /// channels and the PNG's bytes as they are written (with `aovs`, the terms' sums and
+    /// channels too).
+    pub fn bytes_per_pixel(aovs: bool) -> u64 {
+        let base = size_of::<PixelSums>() + 2 * size_of::<Rgb>() + size_of::<f64>() + 4 * 4 + 4;
+        let terms = size_of::<TermSums>() + size_of::<Terms>() + 16 * 4;
+        (base + if aovs { terms } else { 0 }) as u64
+    }
+
     /// The film of some sums: per pixel the mean, its variance and the coverage.
     pub fn from_sums(sums: &Sums) -> Film {
         let spp = sums.spp();

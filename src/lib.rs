@@ -21,6 +21,7 @@ pub mod integrator;
 pub mod interrupt;
 pub mod light;
 pub mod lobe_cmd;
+pub mod memory;
 pub mod merge_cmd;
 pub mod meshes;
 pub mod output;

@@ -295,6 +295,12 @@ impl EnvMap {
         EnvMap { width, height, texels, total, rotation: rotation_deg.to_radians() }
     }
 
+    /// The brightest channel of any texel (as stored, in f32: infinite where the strength took
+    /// it beyond f32's range).
+    pub fn brightest(&self) -> f64 {
+        self.texels.iter().flat_map(|t| t.radiance).fold(0.0, |m, c| m.max(c as f64))
+    }
+
     /// Continuous map coordinates (u right, v down, both in [0, 1)) of a world direction.
     /// Blender's orientation (Cycles' `direction_to_equirectangular`: u = 0.5 - atan2(y, x) / 2 pi,
     /// so the center column looks toward +X); `rotation` turns the lookup direction about +Z as

@@ -1,7 +1,7 @@
 //! `dualhair lobe`: the h-averaged scattering lobe of one fiber as a lat-long image.
 
 use crate::fiber_args::FiberArgs;
-use crate::output::{ImageFormat, write_exr, write_png};
+use crate::output::{ImageFormat, ensure_writable, write_exr, write_png};
 use crate::plot::HeatMap;
 use crate::say;
 use anyhow::{Result, bail};
@@ -33,6 +33,7 @@ pub struct LobeArgs {
 }
 
 pub fn run(args: &LobeArgs) -> Result<()> {
+    ensure_writable(&args.output)?;
     if !(-FRAC_PI_2..=FRAC_PI_2).contains(&args.theta) {
         bail!("--theta must be in [-pi/2, pi/2] radians, got {}", args.theta);
     }

@@ -4,6 +4,7 @@
 
 use crate::converge_cmd;
 use crate::film::Film;
+use crate::output::ensure_writable;
 use crate::partial::{self, Partial};
 use crate::render::Sums;
 use crate::say;
@@ -34,6 +35,7 @@ pub fn run(args: &MergeArgs) -> Result<()> {
     if let Some(dir) = args.parts.iter().find(|p| p.is_dir()) {
         bail!("{}: a folder among image parts: merge either render parts or converge folders", dir.display());
     }
+    ensure_writable(&args.output)?;
     let exr = args.output.with_extension("exr");
     ensure!(exr == args.output, "{}: the merged image is an .exr (a .png is written beside it)", args.output.display());
     let mut parts = Vec::new();

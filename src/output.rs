@@ -22,19 +22,30 @@ impl ImageFormat {
     }
 }
 
-/// Runs `write` on a temporary file beside `path` and renames it into place only if it succeeds,
-/// so an error or interrupt never leaves a half-written output.
-pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+/// Refuses an output path whose folder does not exist or cannot be written, before the work
+/// that would fill it (by creating and removing a file there).
+pub fn ensure_writable(path: &Path) -> Result<()> {
+    temporary_beside(path).map(drop)
+}
+
+/// A temporary file in `path`'s folder, with its extension.
+fn temporary_beside(path: &Path) -> Result<tempfile::NamedTempFile> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
+    if !dir.is_dir() {
+        bail!("{}: the folder {} does not exist", path.display(), dir.display());
+    }
     let suffix = path.extension().map(|e| format!(".{}", e.to_string_lossy())).unwrap_or_default();
-    let tmp = tempfile::Builder::new()
-        .prefix(".dualhair-")
-        .suffix(&suffix)
-        .tempfile_in(dir)
-        .with_context(|| format!("{}: cannot create a file in this folder", path.display()))?;
+    let tmp = tempfile::Builder::new().prefix(".dualhair-").suffix(&suffix).tempfile_in(dir);
+    tmp.with_context(|| format!("{}: cannot create a file in the folder {}", path.display(), dir.display()))
+}
+
+/// Runs `write` on a temporary file beside `path` and renames it into place only if it succeeds,
+/// so an error or interrupt never leaves a half-written output.
+pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let tmp = temporary_beside(path)?;
     write(tmp.path()).with_context(|| format!("{}: writing failed", path.display()))?;
     // Temporary files are private (0600); a finished output is an ordinary file (0644).
     #[cfg(unix)]

@@ -2,7 +2,8 @@
 //! tools read.
 
 use crate::fiber_args::FiberArgs;
-use crate::output::write_atomically;
+use crate::memory;
+use crate::output::{ensure_writable, write_atomically};
 use crate::say;
 use crate::scene::SceneFile;
 use crate::tables_chart::draw_tables;
@@ -71,6 +72,7 @@ fn tables(args: &TablesArgs) -> Result<()> {
         "{}: use .json, .csv, .png or .svg",
         args.output.display()
     );
+    ensure_writable(&args.output)?;
     ensure!(args.d_b.is_finite() && args.d_b >= 0.0, "--d-b must be finite and >= 0, got {}", args.d_b);
     let params = args.fiber.params()?;
     let mut settings = TableSettings::for_fiber(&params);
@@ -116,12 +118,14 @@ fn density(args: &DensityArgs) -> Result<()> {
     if extension(&args.output) != "vdb" {
         bail!("{}: the density grid is written as OpenVDB (.vdb)", args.output.display());
     }
+    ensure_writable(&args.output)?;
     let strands = load_hair(&args.input)?;
     let voxel_size = match args.voxel_size {
         Some(s) if s.is_finite() && s > 0.0 => s,
         Some(s) => bail!("--voxel-size must be finite and > 0, got {s}"),
         None => DensityGrid::auto_voxel_size(&strands),
     };
+    memory::ensure_grid_fits(&strands, voxel_size, "--voxel-size")?;
     let start = Instant::now();
     let grid = DensityGrid::voxelize(&strands, voxel_size);
     let seconds = start.elapsed().as_secs_f64();

@@ -23,6 +23,9 @@ use std::time::Instant;
 /// squares does.
 const SCALE: f64 = (1u64 << 60) as f64;
 
+/// The largest sum a pixel holds, i128::MAX / 2^60 = 1.5e20: beyond it a sum saturates.
+pub const SUM_CEILING: f64 = i128::MAX as f64 / SCALE;
+
 /// `v` in units of 2^-60, truncated toward zero (deterministic like any rounding, and one
 /// instruction where the value fits in an i64, as all but huge radiances do; the f64-to-i128
 /// conversion is a library call).
@@ -112,6 +115,13 @@ impl Sums {
 
     pub fn spp(&self) -> u32 {
         self.samples.len() as u32
+    }
+
+    /// Pixels whose sum or sum of squares saturated (a sample beyond [`SUM_CEILING`] in all, a
+    /// NaN or infinite sample): their value or variance is clipped.
+    pub fn saturated_pixels(&self) -> usize {
+        let full = |e: &Exact| e.0.iter().any(|&s| s == i128::MAX || s == i128::MIN);
+        self.pixels.iter().filter(|p| full(&p.sum) || full(&p.sum_sq)).count()
     }
 
     /// Adds the sums of the samples that follow this one's (`other.samples.start ==

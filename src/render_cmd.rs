@@ -7,9 +7,9 @@ use crate::dual::{
 use crate::film::Film;
 use crate::integrator::PathTracer;
 use crate::interrupt::{self, Interrupted};
-use crate::output::ImageFormat;
+use crate::output::{ImageFormat, ensure_writable};
 use crate::partial::{self, RenderId};
-use crate::render::{Sums, render};
+use crate::render::{SUM_CEILING, Sums, render};
 use crate::say;
 use crate::scene::{IntegratorKind, Sampling, Scene, SceneFile, ShadowMode};
 use crate::transmittance::ForwardLookup;
@@ -338,7 +338,9 @@ fn resume_from(
 pub fn run(args: &RenderArgs) -> Result<()> {
     let (exr, png) = output_paths(args.output.as_deref())?;
     let start = Instant::now();
+    ensure_writable(&exr)?;
     let file = scene_file(args)?;
+    file.check_film(args.aovs)?;
     let id = render_id(&file, args.aovs);
     let samples = match args.part {
         Some(part) => {
@@ -405,6 +407,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             samples.len()
         ))
         .into());
+    }
+    let saturated = sums.saturated_pixels();
+    if saturated > 0 {
+        eprintln!(
+            "warning: {saturated} pixels reached the ceiling of their sums ({SUM_CEILING:.1e}, or a NaN or infinite sample): their values or variances are clipped"
+        );
     }
     let film = Film::from_sums(&sums);
     if args.part.is_some() || args.sums {

@@ -4,9 +4,12 @@
 
 use crate::camera::Camera;
 use crate::dual::{DualModel, Transmittance};
-use crate::fibers::Fibers;
+use crate::fibers::{BUILD_BYTES_PER_SEGMENT, Fibers};
+use crate::film::Film;
 use crate::light::{EnvMap, Environment, Lights, Sun};
+use crate::memory;
 use crate::meshes::{Mesh, Meshes, read_obj};
+use crate::render::SUM_CEILING;
 use crate::transmittance::LookupSettings;
 use crate::world::World;
 use anyhow::{Context, Result, bail, ensure};
@@ -434,6 +437,12 @@ impl SceneFile {
         let strands = self.hair()?;
         let camera = self.camera(&strands)?;
         let lights = self.lights()?;
+        let segments = strands.segment_count() as u64;
+        memory::ensure_fits(
+            format_args!("the BVH over the hair's {segments} segments ({BUILD_BYTES_PER_SEGMENT} bytes each)"),
+            segments * BUILD_BYTES_PER_SEGMENT,
+        )
+        .context("hair")?;
         let fibers = Fibers::new(&strands);
         let meshes = self.meshes(fibers.scale())?;
         Ok(Scene {
@@ -531,12 +540,23 @@ impl SceneFile {
         Ok(Meshes::new(&meshes, scale))
     }
 
+    /// Checks the image size, and that its film (with the terms' split when `aovs`) fits in memory.
+    pub fn check_film(&self, aovs: bool) -> Result<()> {
+        let c = &self.camera;
+        ensure!((1..=16384).contains(&c.width), "camera.width must be in 1..=16384, got {}", c.width);
+        ensure!((1..=16384).contains(&c.height), "camera.height must be in 1..=16384, got {}", c.height);
+        let per_pixel = Film::bytes_per_pixel(aovs);
+        memory::ensure_fits(
+            format_args!("camera.width x camera.height = {} x {} pixels ({per_pixel} bytes each)", c.width, c.height),
+            (c.width * c.height) as u64 * per_pixel,
+        )
+    }
+
     /// The camera: as given, or framing `strands`.
     pub fn camera(&self, strands: &Strands) -> Result<Camera> {
         let c = &self.camera;
         ensure!(c.fov > 0.0 && c.fov < 180.0, "camera.fov must be in (0, 180) degrees, got {}", c.fov);
-        ensure!((1..=16384).contains(&c.width), "camera.width must be in 1..=16384, got {}", c.width);
-        ensure!((1..=16384).contains(&c.height), "camera.height must be in 1..=16384, got {}", c.height);
+        self.check_film(false)?;
         match (c.position, c.look_at) {
             (None, None) => {
                 let (lo, hi) = strands.bounds();
@@ -592,6 +612,27 @@ impl SceneFile {
                 })
             }
         };
+        // Every pixel sums spp samples in fixed point (render.rs): a light whose radiance alone
+        // fills the sums would be clipped in silence.
+        let brightest = [
+            (
+                "lights.environment.strength",
+                match &environment {
+                    Some(Environment::Map(m)) => m.brightest(),
+                    Some(Environment::Constant(c)) => c.0.into_iter().fold(0.0, f64::max),
+                    None => 0.0,
+                },
+            ),
+            ("lights.sun.irradiance", sun.map_or(0.0, |s| s.irradiance.0.into_iter().fold(0.0, f64::max))),
+        ];
+        let spp = self.render.spp as f64;
+        for (field, value) in brightest {
+            ensure!(value.is_finite(), "{field}: takes the radiance beyond f32's range (3.4e38)");
+            ensure!(
+                value * spp <= SUM_CEILING,
+                "{field}: radiance up to {value:.1e} over {spp} samples a pixel is beyond the {SUM_CEILING:.1e} a pixel's sums hold"
+            );
+        }
         Ok(Lights::new(environment, sun))
     }
 }

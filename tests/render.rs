@@ -287,3 +287,80 @@ fn render_command_writes_exr_and_png_or_nothing() {
     assert!(!fail.status.success() && String::from_utf8_lossy(&fail.stderr).contains("render.spp"));
     assert_eq!(std::fs::read_dir(&bad).unwrap().count(), 0, "a failed render left a file");
 }
+
+/// What cannot fit or be written is refused before the work, naming the field and the memory;
+/// a radiance beyond what the sums hold is refused, and a clipped pixel is reported.
+#[test]
+fn what_cannot_fit_or_be_written_is_refused_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let (d, out) = (dir.path(), dir.path().join("out"));
+    std::fs::create_dir(&out).unwrap();
+    let run = |memory: Option<&str>, args: &[&str]| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_dualhair"));
+        c.env("DUALHAIR_CACHE", cache_dir()).current_dir(&out).args(args);
+        if let Some(m) = memory {
+            c.env("DUALHAIR_MEMORY", m);
+        }
+        let run = c.output().unwrap();
+        (run.status.success(), String::from_utf8_lossy(&run.stderr).into_owned())
+    };
+    let brown = format!("{ROOT}/scenes/brown.json");
+    let hair = format!("{ROOT}/scenes/groom/wavy_short.hair.gz");
+    let render = |extra: &[&'static str]| -> Vec<&str> {
+        [&["render", brown.as_str(), "--width", "8", "--height", "8", "--spp", "1"][..], extra].concat()
+    };
+    let big = |w: &'static str| -> Vec<&str> { vec!["render", &brown, "--width", w, "--height", w, "-o", "a.exr"] };
+    let cases: Vec<(Option<&str>, Vec<&str>, &str)> = vec![
+        // 2000 x 2000 pixels of 188 bytes are 752 MB.
+        (
+            Some("100000000"),
+            big("2000"),
+            "camera.width x camera.height = 2000 x 2000 pixels (188 bytes each) would need 752.0 MB of memory; 100.0 MB is available",
+        ),
+        (None, big("200000"), "camera.width must be in 1..=16384"),
+        // The swatch's 152,400 segments at 270 bytes are 41 MB.
+        (
+            Some("10000000"),
+            render(&["-o", "a.exr"]),
+            "hair: the BVH over the hair's 152400 segments (270 bytes each) would need 41.1 MB",
+        ),
+        (
+            Some("100000000"),
+            vec!["precompute", "density", &hair, "--voxel-size", "0.00001", "-o", "g.vdb"],
+            "the density grid at --voxel-size 0.00001",
+        ),
+        (
+            None,
+            render(&["-o", "missing/folder/x.exr"]),
+            "missing/folder/x.exr: the folder missing/folder does not exist",
+        ),
+        (None, vec!["lobe", "-o", "missing/l.png"], "the folder missing does not exist"),
+        (None, vec!["precompute", "tables", "-o", "missing/t.json"], "the folder missing does not exist"),
+    ];
+    for (memory, args, expect) in &cases {
+        let (ok, err) = run(*memory, args);
+        assert!(!ok && err.contains(expect), "{args:?}: {err}");
+        assert!(!err.contains("rendering samples"), "{args:?} rendered before refusing");
+    }
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0, "a refused run left a file");
+
+    // A light past the sums' range is refused; one whose squares fill them renders, reported.
+    let bright = d.join("bright.json");
+    let bright_scene = |strength: f64| {
+        let mut scene: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&brown).unwrap()).unwrap();
+        scene["lights"]["environment"]["strength"] = serde_json::json!(strength);
+        scene["lights"]["environment"]["file"] = serde_json::json!(format!("{ROOT}/scenes/hdri/courtyard.exr"));
+        std::fs::write(&bright, scene.to_string()).unwrap();
+        run(
+            None,
+            &["render", bright.to_str().unwrap(), "--width", "8", "--height", "8", "--spp", "4", "-q", "-o", "b.exr"],
+        )
+    };
+    for (strength, refused) in [(1e300, "beyond f32's range"), (1e19, "beyond the 1.5e20 a pixel's sums hold")] {
+        let (ok, err) = bright_scene(strength);
+        assert!(!ok && err.contains("lights.environment.strength: ") && err.contains(refused), "{err}");
+    }
+    let (ok, err) = bright_scene(1e12);
+    assert!(ok && err.contains("pixels reached the ceiling of their sums"), "{err}");
+    assert!(out.join("b.exr").exists());
+}

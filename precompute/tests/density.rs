@@ -31,6 +31,22 @@ fn density_conserves_total_length() {
 }
 
 #[test]
+fn brick_counts_before_voxelizing_match_the_grid() {
+    let real = fixture();
+    let auto = DensityGrid::auto_voxel_size(&real);
+    for size in [auto / 20.0, auto, 8.0 * auto] {
+        let made = DensityGrid::voxelize(&real, size).bricks().count() as u64;
+        let (touched, bound) =
+            (DensityGrid::bricks_touched(&real, size, u64::MAX), DensityGrid::bricks_bound(&real, size));
+        // Walked at the brick's scale rather than the voxel's, a segment on a brick face may be
+        // assigned to the other side: a few bricks either way.
+        assert!(touched.abs_diff(made) * 100 <= made, "voxel size {size}: {touched} counted, {made} made");
+        assert!(bound >= touched, "voxel size {size}: bound {bound} below {touched}");
+        assert_eq!(DensityGrid::bricks_touched(&real, size, made / 2), made / 2 + 1, "stops at the limit");
+    }
+}
+
+#[test]
 fn segments_on_voxel_faces_and_edges_are_counted_once() {
     let s = 0.25;
     // Strands along x lying exactly on voxel faces (y = 2s) and edges (y = 2s, z = -3s), along z

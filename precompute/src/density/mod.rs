@@ -96,6 +96,37 @@ impl DensityGrid {
         (16.0 * mean_radius(strands)).clamp(longest / 512.0, longest / 16.0)
     }
 
+    /// Bytes [`DensityGrid::voxelize`] holds per brick at its peak: the brick's sums in f64 and
+    /// its densities in f32, each boxed, with their hash entries.
+    pub const VOXELIZE_BYTES_PER_BRICK: u64 = (BRICK_VOXELS * (8 + 4) + 2 * 48) as u64;
+
+    /// The most bricks voxelizing `strands` can make: those of the hair's bounds (cheap, and
+    /// what a grid of fine voxels over a large groom cannot exceed).
+    pub fn bricks_bound(strands: &Strands, voxel_size: f64) -> u64 {
+        let (lo, hi) = strands.bounds();
+        let brick = voxel_size * BRICK as f64;
+        (0..3)
+            .map(|k| ((hi[k] as f64 / brick).floor() - (lo[k] as f64 / brick).floor() + 1.0).max(1.0))
+            .product::<f64>()
+            .min(u64::MAX as f64) as u64
+    }
+
+    /// The bricks voxelizing `strands` will make, counted by walking the segments brick by brick
+    /// (a hash set of keys: about 1/300 of the grid's memory), or `limit + 1` once more than
+    /// `limit` are found.
+    pub fn bricks_touched(strands: &Strands, voxel_size: f64, limit: u64) -> u64 {
+        let mut bricks = rustc_hash::FxHashSet::default();
+        for s in strands.segments() {
+            traverse(s.a.as_dvec3(), s.b.as_dvec3(), voxel_size * BRICK as f64, |b, _, _| {
+                bricks.insert(b);
+            });
+            if bricks.len() as u64 > limit {
+                return limit + 1;
+            }
+        }
+        bricks.len() as u64
+    }
+
     /// Voxelizes strands: exact length of every segment inside every voxel, over the voxel volume.
     pub fn voxelize(strands: &Strands, voxel_size: f64) -> DensityGrid {
         assert!(voxel_size > 0.0 && voxel_size.is_finite(), "voxel size must be finite and > 0");

@@ -2,8 +2,9 @@
 //! fiber, d_b and the table resolution) and the density grid (keyed by the strands' exact geometry
 //! and the voxel size). A render reuses them while their inputs are unchanged and recomputes them
 //! otherwise. Location: `$DUALHAIR_CACHE`, else `$XDG_CACHE_HOME/dualhair`, else
-//! `$HOME/.cache/dualhair`. Entries are named by a 64-bit FNV-1a hash of their inputs, and a
-//! cached table also records its inputs, which are compared on load.
+//! `$HOME/.cache/dualhair`. Entries are named by a 64-bit FNV-1a hash of their inputs and of the
+//! code that makes them ([`CODE_ID`]), and a cached table also records its inputs, which are
+//! compared on load.
 
 use crate::memory;
 use crate::output::write_atomically;
@@ -29,8 +30,9 @@ pub(crate) fn spinner(show: bool, message: String) -> ProgressBar {
     spinner
 }
 
-/// Bumped whenever the cached formats or the computations change meaning.
-const VERSION: u64 = 1;
+/// The identity of this build's code: a hash of the sources that make the cache's entries
+/// (build.rs). It keys every entry, so a new build never reads what an older one made.
+pub const CODE_ID: &str = env!("DUALHAIR_CODE_ID");
 
 /// 64-bit FNV-1a (Fowler, Noll, Vo): stable across platforms and compiler versions.
 #[derive(Clone, Copy)]
@@ -38,7 +40,7 @@ pub(crate) struct Fnv(pub(crate) u64);
 
 impl Fnv {
     pub(crate) fn new() -> Fnv {
-        Fnv(0xcbf2_9ce4_8422_2325 ^ VERSION)
+        Fnv(0xcbf2_9ce4_8422_2325)
     }
 
     pub(crate) fn bytes(mut self, bytes: &[u8]) -> Fnv {
@@ -51,11 +53,24 @@ impl Fnv {
 
 pub struct Cache {
     dir: PathBuf,
+    /// The code identity that keys the entries ([`CODE_ID`]).
+    code: String,
 }
 
 impl Cache {
     pub fn at(dir: impl Into<PathBuf>) -> Cache {
-        Cache { dir: dir.into() }
+        Cache::for_code(dir, CODE_ID)
+    }
+
+    /// A cache whose entries are those of the code identified by `code` (tests: entries of
+    /// another build).
+    pub fn for_code(dir: impl Into<PathBuf>, code: &str) -> Cache {
+        Cache { dir: dir.into(), code: code.into() }
+    }
+
+    /// The hash every entry's key starts from.
+    fn key(&self) -> Fnv {
+        Fnv::new().bytes(self.code.as_bytes())
     }
 
     /// The default location (see the module documentation).
@@ -79,7 +94,7 @@ impl Cache {
     pub fn tables(&self, fiber: &FiberParams, d_b: f64, progress: bool) -> Result<Tables> {
         let settings = TableSettings::for_fiber(fiber);
         let inputs = serde_json::to_vec(&(fiber, d_b, settings.resolution()))?;
-        let path = self.entry(format!("tables-{:016x}.json", Fnv::new().bytes(&inputs).0))?;
+        let path = self.entry(format!("tables-{:016x}.json", self.key().bytes(&inputs).0))?;
         if let Some(tables) = load_tables(&path, fiber, d_b) {
             return Ok(tables);
         }
@@ -98,7 +113,7 @@ impl Cache {
     /// orientation ([`DensityGrid::with_orientation`]).
     pub fn density(&self, strands: &Strands, voxel_size: Option<f64>) -> Result<DensityGrid> {
         let size = voxel_size.unwrap_or_else(|| DensityGrid::auto_voxel_size(strands));
-        let h = hash_strands(Fnv::new().bytes(&size.to_le_bytes()), strands);
+        let h = hash_strands(self.key().bytes(&size.to_le_bytes()), strands);
         let path = self.entry(format!("density-{:016x}.vdb", h.0))?;
         if let Ok(grid) = read_vdb(&path, "density")
             && grid.voxel_size == size
@@ -118,11 +133,11 @@ impl Cache {
     /// The forward-transmittance lookup of a scene's hair toward its lights; `progress` shows a
     /// bar while it is built. The sun's map and the environment's maps are two entries, each
     /// keyed by the strands, its resolution, its directions (the sun's direction and disc; the
-    /// environment's are fixed, so its image does not matter) and the build's version: never by
+    /// environment's are fixed, so its image does not matter) and the code: never by
     /// the camera or the meshes.
     pub fn lookup(&self, scene: &Scene, progress: bool) -> Result<ForwardLookup> {
         let (strands, lights, settings) = (&scene.strands, &scene.lights, &scene.dual.lookup);
-        let hair = hash_strands(Fnv::new(), strands).bytes(&ForwardLookup::VERSION.to_le_bytes());
+        let hair = hash_strands(self.key(), strands);
         let sun = match &lights.sun {
             Some(sun) => {
                 let key = [sun.direction.x, sun.direction.y, sun.direction.z, sun.half_angle, settings.sun_texel];
@@ -202,4 +217,36 @@ fn load_tables(path: &Path, fiber: &FiberParams, d_b: f64) -> Option<Tables> {
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(path).ok()?).ok()?;
     let tables = Tables::from_json(&json).ok()?;
     (tables.fiber.as_ref() == Some(fiber) && tables.d_b == d_b).then_some(tables)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use precompute::strands::{Generator, Straight};
+
+    /// An entry written under one code identity is read under it and never under another.
+    #[test]
+    fn entries_are_keyed_by_the_code_that_made_them() {
+        let dir = tempfile::tempdir().unwrap();
+        let hair = |strands| Generator::Straight(Straight { strands, ..Default::default() }).generate().unwrap();
+        let (strands, other) = (hair(40), hair(7));
+        let size = Some(DensityGrid::auto_voxel_size(&strands));
+        let old = Cache::for_code(dir.path(), "older build");
+        let fresh = old.density(&strands, size).unwrap();
+        let entries = || std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().path()).collect::<Vec<_>>();
+        let [entry] = entries().try_into().unwrap();
+        // Replace the entry with another hair's grid at the same voxel size: what the older build
+        // reads back is that grid, so reads do come from the entry.
+        let planted = DensityGrid::voxelize(&other, size.unwrap());
+        let mut bytes = Vec::new();
+        write_vdb(&mut bytes, &planted, "density").unwrap();
+        std::fs::write(&entry, bytes).unwrap();
+        assert_eq!(old.density(&strands, size).unwrap().total_length(), planted.total_length());
+        // Another build computes its own entry beside it.
+        let new = Cache::for_code(dir.path(), "newer build").density(&strands, size).unwrap();
+        assert_eq!(new.total_length(), fresh.total_length());
+        assert_ne!(new.total_length(), planted.total_length());
+        assert_eq!(entries().len(), 2);
+        assert_eq!(CODE_ID.len(), 16, "build.rs sets a 64-bit hash: {CODE_ID}");
+    }
 }

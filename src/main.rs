@@ -15,7 +15,8 @@ use dualhair::stability_cmd::{self, StabilityArgs};
 /// dualhair: a hair renderer that makes multiple scattering cheap (dual scattering with a
 /// voxel hair-density grid, d'Eon importance sampling, and a path-traced reference).
 #[derive(Parser, Debug)]
-#[command(version, about, long_about = None)]
+// The version names the code too: cache entries and resumable renders are keyed by it.
+#[command(version = concat!(env!("CARGO_PKG_VERSION"), " (code ", env!("DUALHAIR_CODE_ID"), ")"), about, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -1,6 +1,6 @@
 //! `dualhair render`: renders a scene file to EXR and PNG.
 
-use crate::cache::{Cache, Fnv, spinner};
+use crate::cache::{CODE_ID, Cache, Fnv, spinner};
 use crate::dual::{
     AUTO_SINGLE_BELOW, DualModel, DualScattering, Shadows, crossing_mean, forward_cosine, predicted_multiple_share,
 };
@@ -284,7 +284,7 @@ pub fn render_into(
 fn render_id(file: &SceneFile, aovs: bool) -> RenderId {
     let mut f = file.clone();
     f.render.spp = 0;
-    let fingerprint = Fnv::new().bytes(format!("{f:?} aovs {aovs}").as_bytes()).0;
+    let fingerprint = Fnv::new().bytes(CODE_ID.as_bytes()).bytes(format!("{f:?} aovs {aovs}").as_bytes()).0;
     RenderId {
         fingerprint: format!("{fingerprint:016x}"),
         seed: file.render.seed,
@@ -316,7 +316,9 @@ fn resume_from(
     let s = &partial.sums;
     let what = |d: String| anyhow!("{}: cannot resume: {d}", exr.display());
     if partial.id.fingerprint != id.fingerprint || partial.id.seed != id.seed {
-        return Err(what("it was rendered from another scene, seed or settings".into()));
+        return Err(what(
+            "it was rendered from another scene, seed or settings, or by another build of dualhair".into(),
+        ));
     }
     if (s.width, s.height) != size || s.terms.is_empty() == aovs {
         return Err(what(format!(

@@ -517,10 +517,6 @@ pub fn fiber_width(strands: &Strands) -> f64 {
 }
 
 impl ForwardLookup {
-    /// Changes whenever `build` measures differently, so that caches of an older build are not
-    /// reused (part of the cache key).
-    pub const VERSION: u32 = 6;
-
     /// The sun's part: its map toward `direction` (unit, toward it) and its disc's half angle.
     pub fn sun(strands: &Strands, direction: DVec3, half_angle: f64, settings: &LookupSettings) -> ForwardLookup {
         let w = fiber_width(strands);

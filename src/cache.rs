@@ -230,14 +230,15 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let hair = |strands| Generator::Straight(Straight { strands, ..Default::default() }).generate().unwrap();
         let (strands, other) = (hair(40), hair(7));
-        let size = Some(DensityGrid::auto_voxel_size(&strands));
+        let voxel = DensityGrid::auto_voxel_size(&strands);
+        let size = Some(voxel);
         let old = Cache::for_code(dir.path(), "older build");
         let fresh = old.density(&strands, size).unwrap();
         let entries = || std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().path()).collect::<Vec<_>>();
         let [entry] = entries().try_into().unwrap();
         // Replace the entry with another hair's grid at the same voxel size: what the older build
         // reads back is that grid, so reads do come from the entry.
-        let planted = DensityGrid::voxelize(&other, size.unwrap());
+        let planted = DensityGrid::voxelize(&other, voxel);
         let mut bytes = Vec::new();
         write_vdb(&mut bytes, &planted, "density").unwrap();
         std::fs::write(&entry, bytes).unwrap();

@@ -95,39 +95,35 @@ impl Cache {
         let settings = TableSettings::for_fiber(fiber);
         let inputs = serde_json::to_vec(&(fiber, d_b, settings.resolution()))?;
         let path = self.entry(format!("tables-{:016x}.json", self.key().bytes(&inputs).0))?;
-        if let Some(tables) = load_tables(&path, fiber, d_b) {
-            return Ok(tables);
-        }
-        let spinner = spinner(
-            progress,
-            format!("computing the dual-scattering tables once for this fiber (cached in {})", path.display()),
-        );
-        let mut tables = compute(&Fiber::exact(fiber)?, &settings, d_b);
-        spinner.finish_and_clear();
-        tables.fiber = Some(*fiber);
-        write_atomically(&path, |tmp| Ok(std::fs::write(tmp, serde_json::to_vec(&tables.to_json())?)?))?;
-        Ok(tables)
+        let build = || {
+            let spinner = spinner(progress, "computing the dual-scattering tables once for this fiber".into());
+            let mut tables = compute(&Fiber::exact(fiber)?, &settings, d_b);
+            spinner.finish_and_clear();
+            tables.fiber = Some(*fiber);
+            write_atomically(&path, |tmp| Ok(std::fs::write(tmp, serde_json::to_vec(&tables.to_json())?)?))?;
+            Ok(tables)
+        };
+        cached(&path, "the dual-scattering tables", progress, |p| load_tables(p, fiber, d_b), build)
     }
 
     /// The density grid of some strands at a voxel size (automatic when `None`), with their
     /// orientation ([`DensityGrid::with_orientation`]).
-    pub fn density(&self, strands: &Strands, voxel_size: Option<f64>) -> Result<DensityGrid> {
+    pub fn density(&self, strands: &Strands, voxel_size: Option<f64>, progress: bool) -> Result<DensityGrid> {
         let size = voxel_size.unwrap_or_else(|| DensityGrid::auto_voxel_size(strands));
         let h = hash_strands(self.key().bytes(&size.to_le_bytes()), strands);
         let path = self.entry(format!("density-{:016x}.vdb", h.0))?;
-        if let Ok(grid) = read_vdb(&path, "density")
-            && grid.voxel_size == size
-        {
-            return Ok(grid.with_orientation(strands));
-        }
-        memory::ensure_grid_fits(strands, size, "dual.voxel_size")?;
-        let grid = DensityGrid::voxelize(strands, size);
-        write_atomically(&path, |tmp| {
-            let mut w = std::io::BufWriter::new(std::fs::File::create(tmp)?);
-            write_vdb(&mut w, &grid, "density")?;
-            Ok(w.flush()?)
-        })?;
-        Ok(grid.with_orientation(strands))
+        let read = |p: &Path| read_vdb(p, "density").ok().filter(|g| g.voxel_size == size);
+        let build = || {
+            memory::ensure_grid_fits(strands, size, "dual.voxel_size")?;
+            let grid = DensityGrid::voxelize(strands, size);
+            write_atomically(&path, |tmp| {
+                let mut w = std::io::BufWriter::new(std::fs::File::create(tmp)?);
+                write_vdb(&mut w, &grid, "density")?;
+                Ok(w.flush()?)
+            })?;
+            Ok(grid)
+        };
+        Ok(cached(&path, "the density grid", progress, read, build)?.with_orientation(strands))
     }
 
     /// The forward-transmittance lookup of a scene's hair toward its lights; `progress` shows a
@@ -174,28 +170,67 @@ impl Cache {
         progress: bool,
         build: impl FnOnce() -> ForwardLookup,
     ) -> Result<ForwardLookup> {
-        if let Some(lookup) = std::fs::read(path).ok().and_then(|b| ForwardLookup::read(&b)) {
-            return Ok(lookup);
-        }
-        let start = Instant::now();
-        let lookup = build();
-        if progress {
-            eprintln!(
-                "built {} forward-transmittance map{} of {what} in {:.1} s ({:.1} MB, cached in {})",
-                lookup.maps(),
-                if lookup.maps() == 1 { "" } else { "s" },
-                start.elapsed().as_secs_f64(),
-                lookup.bytes() as f64 / 1e6,
-                path.display()
-            );
-        }
-        write_atomically(path, |tmp| {
-            let mut w = std::io::BufWriter::new(std::fs::File::create(tmp)?);
-            lookup.write(&mut w)?;
-            Ok(w.flush()?)
-        })?;
-        Ok(lookup)
+        let read = |p: &Path| std::fs::read(p).ok().and_then(|b| ForwardLookup::read(&b));
+        let build = || {
+            let lookup = build();
+            write_atomically(path, |tmp| {
+                let mut w = std::io::BufWriter::new(std::fs::File::create(tmp)?);
+                lookup.write(&mut w)?;
+                Ok(w.flush()?)
+            })?;
+            Ok(lookup)
+        };
+        let maps = format!("the forward-transmittance maps of {what}");
+        cached(path, &maps, progress, read, build)
     }
+}
+
+/// The entry at `path`: read it, or else build (and write) it under a lock beside it, so that
+/// processes sharing a cache (a render split over a cluster's nodes) build each entry once: the
+/// others wait for the lock, then read what it built. With `progress`, says what it built or
+/// waits for, and how long it took.
+fn cached<T>(
+    path: &Path,
+    what: &str,
+    progress: bool,
+    read: impl Fn(&Path) -> Option<T>,
+    build: impl FnOnce() -> Result<T>,
+) -> Result<T> {
+    if let Some(entry) = read(path) {
+        return Ok(entry);
+    }
+    let _lock = lock_beside(path, what, progress)?;
+    if let Some(entry) = read(path) {
+        return Ok(entry);
+    }
+    let start = Instant::now();
+    let entry = build()?;
+    if progress {
+        eprintln!("built {what} in {:.1} s (cached in {})", start.elapsed().as_secs_f64(), path.display());
+    }
+    Ok(entry)
+}
+
+/// An exclusive lock on `path` + ".lock", held until dropped (or the process ends, however it
+/// ends). `None` where the file system cannot lock: the build goes ahead, and the entry is
+/// still written whole ([`write_atomically`]), only perhaps twice.
+fn lock_beside(path: &Path, what: &str, progress: bool) -> Result<Option<std::fs::File>> {
+    let lock = PathBuf::from(format!("{}.lock", path.display()));
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&lock)
+        .with_context(|| format!("{}: cannot create the cache's lock file", lock.display()))?;
+    match file.try_lock() {
+        Ok(()) => return Ok(Some(file)),
+        Err(std::fs::TryLockError::WouldBlock) => {}
+        Err(std::fs::TryLockError::Error(_)) => return Ok(None),
+    }
+    if progress {
+        eprintln!("waiting for another dualhair process building {what} ({})", path.display());
+    }
+    Ok(file.lock().ok().map(|()| file))
 }
 
 /// Feeds the strands' exact geometry to a hash.
@@ -233,7 +268,7 @@ mod tests {
         let voxel = DensityGrid::auto_voxel_size(&strands);
         let size = Some(voxel);
         let old = Cache::for_code(dir.path(), "older build");
-        let fresh = old.density(&strands, size).unwrap();
+        let fresh = old.density(&strands, size, false).unwrap();
         let entries = || std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().path()).collect::<Vec<_>>();
         let [entry] = entries().try_into().unwrap();
         // Replace the entry with another hair's grid at the same voxel size: what the older build
@@ -242,9 +277,9 @@ mod tests {
         let mut bytes = Vec::new();
         write_vdb(&mut bytes, &planted, "density").unwrap();
         std::fs::write(&entry, bytes).unwrap();
-        assert_eq!(old.density(&strands, size).unwrap().total_length(), planted.total_length());
+        assert_eq!(old.density(&strands, size, false).unwrap().total_length(), planted.total_length());
         // Another build computes its own entry beside it.
-        let new = Cache::for_code(dir.path(), "newer build").density(&strands, size).unwrap();
+        let new = Cache::for_code(dir.path(), "newer build").density(&strands, size, false).unwrap();
         assert_eq!(new.total_length(), fresh.total_length());
         assert_ne!(new.total_length(), planted.total_length());
         assert_eq!(entries().len(), 2);

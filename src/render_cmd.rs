@@ -178,7 +178,7 @@ impl DualInputs {
         let tables = cache.tables(&scene.fiber, d.d_b, progress)?;
         let grid = match &d.density_grid {
             Some(path) => read_vdb(path, "density")?.with_orientation(&scene.strands),
-            None => cache.density(&scene.strands, d.voxel_size)?,
+            None => cache.density(&scene.strands, d.voxel_size, progress)?,
         };
         let lookup = match d.shadows {
             ShadowMode::Lookup => Some(cache.lookup(scene, progress)?),

@@ -158,11 +158,11 @@ fn precomputed_inputs_are_cached_and_reused() {
 
     // The density grid: reused for the same strands and voxel size, rebuilt for others.
     let strands = bundled("brown", 8, 1).hair().unwrap();
-    let grid = cache.density(&strands, None).unwrap();
+    let grid = cache.density(&strands, None, false).unwrap();
     let n = files().len();
-    assert_eq!(cache.density(&strands, None).unwrap(), grid);
+    assert_eq!(cache.density(&strands, None, false).unwrap(), grid);
     assert_eq!(files().len(), n);
-    let finer = cache.density(&strands, Some(0.5 * grid.voxel_size)).unwrap();
+    let finer = cache.density(&strands, Some(0.5 * grid.voxel_size), false).unwrap();
     assert_eq!(files().len(), n + 1);
     assert!(((finer.total_length() - grid.total_length()) / grid.total_length()).abs() < 1e-3);
 

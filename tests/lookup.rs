@@ -36,7 +36,7 @@ const NAMES: [&str; 10] = [
 /// the hair alone (`dual` traces rays against the meshes with both).
 fn compare(file: &SceneFile, settings: LookupSettings, k: usize) -> [(f64, f64); 10] {
     let scene = file.build().unwrap();
-    let grid = cache().density(&scene.strands, None).unwrap();
+    let grid = cache().density(&scene.strands, None, false).unwrap();
     let sun = scene.lights.sun.as_ref().unwrap();
     let lookup = ForwardLookup::build(&scene.strands, &scene.lights, &settings, false);
     let chiang = Chiang::new(&scene.fiber).unwrap();

@@ -212,3 +212,44 @@ fn the_slurm_script_runs_each_array_task_as_a_part() {
     succeeds(&[&["render"][..], &flags, &["-q", "-o", "single.exr"]].concat(), d);
     assert!(bytes(d, "merged.exr") == bytes(d, "single.exr"));
 }
+
+/// Renders started at once on one cold cache folder (as the parts of a split render on a shared
+/// file system): each entry is built by one process while the others wait for it, every image is
+/// what a render alone makes, and the cache ends whole.
+#[test]
+fn concurrent_renders_build_each_cache_entry_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let (d, cache) = (dir.path(), dir.path().join("cache"));
+    let scene = format!("{ROOT}/scenes/brown.json");
+    let args = |out: &str| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_dualhair"));
+        c.env("DUALHAIR_CACHE", &cache).current_dir(d);
+        c.args(["render", &scene, "--width", "12", "--height", "12", "--spp", "2", "--shadows", "lookup", "-o", out]);
+        c
+    };
+    let children: Vec<_> = (0..4)
+        .map(|k| args(&format!("r{k}.exr")).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap())
+        .collect();
+    let mut said = String::new();
+    for child in children {
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{err}");
+        said += &err;
+    }
+    for what in ["the dual-scattering tables", "the density grid", "the forward-transmittance maps of the sky"] {
+        assert_eq!(said.matches(&format!("built {what} in")).count(), 1, "{what}:\n{said}");
+    }
+    let mut names: Vec<String> =
+        std::fs::read_dir(&cache).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    names.sort();
+    let kinds: Vec<&str> = names.iter().map(|n| n.split('-').next().unwrap()).collect();
+    assert_eq!(kinds, ["density", "density", "lookup", "lookup", "tables", "tables"], "{names:?}");
+    assert_eq!(names.iter().filter(|n| n.ends_with(".lock")).count(), 3, "{names:?}");
+    // The entries read back give the same image as the processes that built or waited for them.
+    let alone = args("alone.exr").arg("-q").output().unwrap();
+    assert!(alone.status.success() && alone.stderr.is_empty(), "{}", String::from_utf8_lossy(&alone.stderr));
+    for k in 0..4 {
+        assert!(bytes(d, &format!("r{k}.exr")) == bytes(d, "alone.exr"), "render {k} differs");
+    }
+}

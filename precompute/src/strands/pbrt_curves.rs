@@ -387,7 +387,7 @@ impl Reader {
         let n = cp.len();
         let segments: Vec<Vec<DVec3>> = match basis.as_str() {
             "bezier" => {
-                if n < degree + 1 || (n - 1) % degree != 0 {
+                if n < degree + 1 || !(n - 1).is_multiple_of(degree) {
                     return Err(format!(
                         "{n} control points: a degree {degree} Bezier curve takes {} + k * {degree} (k >= 0)",
                         degree + 1

@@ -7,7 +7,7 @@
 //! radii: a ray from a hair root at the scalp still meets the scalp. Callers see world units.
 //! Triangles of zero area (which no ray can hit) are dropped when read.
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use glam::{DVec3, Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
@@ -177,8 +177,18 @@ pub fn spawn_point(hit: &MeshHit) -> Vec3 {
 /// The triangles of a Wavefront OBJ file (polygons split into triangles; points and lines
 /// ignored), in the file's units. Errors name the file and say what is wrong.
 pub fn read_obj(path: &Path) -> Result<Vec<[Vec3; 3]>> {
+    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read it", path.display()))?;
+    parse_obj(&bytes, path)
+}
+
+/// [`read_obj`] of a file's bytes; `path` is what errors name. Materials are not read: a mesh
+/// here has one albedo from the scene, and an `mtllib` line could name any file (`/dev/zero`
+/// never ends).
+pub fn parse_obj(bytes: &[u8], path: &Path) -> Result<Vec<[Vec3; 3]>> {
     let options = tobj::LoadOptions { triangulate: true, ignore_points: true, ignore_lines: true, single_index: false };
-    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| obj_error(path, e))?;
+    let no_materials = |_: &Path| Ok(Default::default());
+    let (models, _materials) =
+        tobj::load_obj_buf(&mut { bytes }, &options, no_materials).map_err(|e| obj_error(path, e))?;
     let mut triangles = Vec::new();
     for model in &models {
         let mesh = &model.mesh;
@@ -216,10 +226,6 @@ pub fn read_obj(path: &Path) -> Result<Vec<[Vec3; 3]>> {
 fn obj_error(path: &Path, e: tobj::LoadError) -> anyhow::Error {
     use tobj::LoadError::*;
     let problem = match e {
-        OpenFileFailed => match std::fs::metadata(path) {
-            Err(io) => format!("cannot read it: {io}"),
-            Ok(_) => "cannot open it".into(),
-        },
         ReadError => "cannot read it (not a text file?)".into(),
         PositionParseError => "a `v` line does not hold three numbers".into(),
         NormalParseError => "a `vn` line does not hold three numbers".into(),

@@ -63,3 +63,13 @@ fn scene_inputs_build_or_fail_cleanly() {
 fn envmap_inputs_load_or_fail_cleanly() {
     replay("envmap", entries::envmap);
 }
+
+#[test]
+fn obj_inputs_load_or_fail_cleanly() {
+    replay("obj", entries::obj);
+}
+
+#[test]
+fn pbrt_inputs_load_or_fail_cleanly() {
+    replay("pbrt", entries::pbrt);
+}

@@ -100,6 +100,10 @@ fn obj_files_read_polygons_and_bad_ones_are_named_errors() {
     }
     let err = format!("{:#}", read_obj(&d.join("missing.obj")).unwrap_err());
     assert!(err.contains("missing.obj") && err.contains("No such file"), "{err}");
+    // Materials are never read: an `mtllib` naming a missing file, or one that never ends.
+    let materials =
+        write(d, "materials.obj", "mtllib missing.mtl\nmtllib /dev/zero\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    assert_eq!(read_obj(Path::new(&materials)).unwrap().len(), 1);
 
     // Through the program: a scene naming a bad mesh fails with its name, and writes nothing.
     let out_dir = tempfile::tempdir().unwrap();

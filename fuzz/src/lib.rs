@@ -6,9 +6,10 @@
 //! the fuzzer and the test run the same code.
 
 use dualhair::light::EnvMap;
+use dualhair::meshes::parse_obj;
 use dualhair::scene::SceneFile;
 use precompute::density::parse_vdb;
-use precompute::strands::{Generator, parse_hair};
+use precompute::strands::{Generator, parse_hair, parse_pbrt_curves};
 use std::error::Error;
 use std::path::{Component, Path};
 
@@ -42,6 +43,27 @@ pub fn vdb(data: &[u8]) -> Result<(), String> {
 pub fn envmap(data: &[u8]) -> Result<(), String> {
     let name = if data.starts_with(&EXR_MAGIC) { "fuzz.exr" } else { "fuzz.hdr" };
     named(EnvMap::from_bytes(data, Path::new(name), 1.0, 0.0).map(drop).map_err(|e| message(e.as_ref())), name)
+}
+
+/// A Wavefront OBJ mesh (`parse_obj`: its `mtllib` lines are never followed).
+pub fn obj(data: &[u8]) -> Result<(), String> {
+    const NAME: &str = "fuzz.obj";
+    let triangles = parse_obj(data, Path::new(NAME)).map_err(|e| message(e.as_ref()))?;
+    assert!(triangles.iter().flatten().all(|p| p.is_finite()), "parse_obj returned a vertex that is not finite");
+    named(Ok(()), NAME)
+}
+
+/// A pbrt-v4 scene's curves, with its files in memory: the input is `fuzz.pbrt` in a directory
+/// holding nothing else, so `Include "fuzz.pbrt"` includes itself and any other file is missing
+/// (file reads are confined by construction).
+pub fn pbrt(data: &[u8]) -> Result<(), String> {
+    const NAME: &str = "/nonexistent-dualhair-fuzz/fuzz.pbrt";
+    let read = |p: &Path| match p == Path::new(NAME) {
+        true => Ok(data.to_vec()),
+        false => Err(std::io::Error::from(std::io::ErrorKind::NotFound)),
+    };
+    let strands = parse_pbrt_curves(Path::new(NAME), &read).map_err(|e| message(&e));
+    named(strands.map(|s| s.validate().expect("parse_pbrt_curves returned strands that do not validate")), "fuzz.pbrt")
 }
 
 /// A scene file, parsed and built (hair, meshes, camera, lights, BVH).

@@ -216,9 +216,16 @@ fn bad_files_name_their_file_and_line() {
     let outer = dir.write("outer.pbrt", "WorldBegin\nInclude \"inner.pbrt\"\n");
     let message = read_pbrt_curves(&outer).unwrap_err().to_string();
     assert!(message.contains("inner.pbrt:2: 1 control points"), "{message}");
-    // A file that includes itself stops at the nesting limit.
-    let selfish = dir.write("self.pbrt", "Include \"self.pbrt\"\n");
-    assert!(read_pbrt_curves(&selfish).unwrap_err().to_string().contains("nest more than 32"));
+    // A file that includes itself, even twice over (2^31 reads before the nesting limit), is a
+    // cycle; a chain of distinct files stops at the nesting limit.
+    let selfish = dir.write("self.pbrt", "Include \"self.pbrt\"\nInclude \"self.pbrt\"\n");
+    let message = read_pbrt_curves(&selfish).unwrap_err().to_string();
+    assert!(message.contains("self.pbrt:1: ") && message.contains("self.pbrt includes itself"), "{message}");
+    for k in 0..40 {
+        dir.write(&format!("chain{k}.pbrt"), &format!("Include \"chain{}.pbrt\"\n", k + 1));
+    }
+    let message = read_pbrt_curves(&dir.0.join("chain0.pbrt")).unwrap_err().to_string();
+    assert!(message.contains("nest more than 32"), "{message}");
     assert!(read_strands(Path::new("x.obj")).unwrap_err().to_string().contains("not a hair file"));
 }
 

@@ -11,7 +11,7 @@ mod pbrt_curves;
 
 pub use generate::{Ball, Curly, GenerateError, Generator, MAX_STRAND_POINTS, MAX_TOTAL_POINTS, Scalp, Straight, Wavy};
 pub use hair_format::{HairError, parse_hair, read_hair, write_hair};
-pub use pbrt_curves::{PbrtError, read_pbrt_curves};
+pub use pbrt_curves::{PbrtError, parse_pbrt_curves, read_pbrt_curves};
 
 use glam::Vec3;
 use std::path::Path;

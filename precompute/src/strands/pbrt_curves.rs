@@ -45,8 +45,33 @@ const MAX_PIECES: usize = 64;
 /// Reads every `Shape "curve"` of a pbrt-v4 scene file (and the files it includes) as strands,
 /// in world space.
 pub fn read_pbrt_curves(path: &Path) -> Result<Strands, PbrtError> {
+    parse_pbrt_curves(path, &read_file)
+}
+
+/// The bytes of a file, decompressed when its name ends in `.gz`.
+fn read_file(path: &Path) -> std::io::Result<Vec<u8>> {
+    let file = std::io::BufReader::new(std::fs::File::open(path)?);
+    let mut bytes = Vec::new();
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz")) {
+        flate2::read::MultiGzDecoder::new(file).read_to_end(&mut bytes)?;
+    } else {
+        { file }.read_to_end(&mut bytes)?;
+    }
+    Ok(bytes)
+}
+
+/// [`read_pbrt_curves`] with the files' bytes from `read` (the fuzz target's files live in
+/// memory).
+pub fn parse_pbrt_curves(path: &Path, read: &dyn Fn(&Path) -> std::io::Result<Vec<u8>>) -> Result<Strands, PbrtError> {
     let root = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut reader = Reader { root, state: State::default(), stack: Vec::new(), strands: Strands::default() };
+    let mut reader = Reader {
+        root,
+        read,
+        reading: Vec::new(),
+        state: State::default(),
+        stack: Vec::new(),
+        strands: Strands::default(),
+    };
     reader.strands.offsets.push(0);
     reader.file(path, 0)?;
     if reader.strands.strand_count() == 0 {
@@ -73,8 +98,13 @@ impl Default for Ctm {
     }
 }
 
-struct Reader {
+struct Reader<'a> {
     root: PathBuf,
+    read: &'a dyn Fn(&Path) -> std::io::Result<Vec<u8>>,
+    /// The files being read, outermost first: an `Include` of one of them is a cycle, which
+    /// would otherwise repeat until the nesting limit, 2^31 times where a file includes itself
+    /// twice.
+    reading: Vec<PathBuf>,
     state: State,
     stack: Vec<State>,
     strands: Strands,
@@ -234,17 +264,17 @@ impl Args {
     }
 }
 
-impl Reader {
+impl Reader<'_> {
     fn file(&mut self, path: &Path, depth: usize) -> Result<(), PbrtError> {
-        let io = |error| PbrtError::Io { path: path.to_owned(), error };
-        let mut bytes = Vec::new();
-        let file = std::fs::File::open(path).map_err(io)?;
-        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz")) {
-            flate2::read::MultiGzDecoder::new(std::io::BufReader::new(file)).read_to_end(&mut bytes).map_err(io)?;
-        } else {
-            std::io::BufReader::new(file).read_to_end(&mut bytes).map_err(io)?;
-        }
-        let mut tokens = Tokens { text: &bytes, at: 0, line: 1 };
+        let bytes = (self.read)(path).map_err(|error| PbrtError::Io { path: path.to_owned(), error })?;
+        self.reading.push(path.to_owned());
+        self.tokens(path, &bytes, depth)?;
+        self.reading.pop();
+        Ok(())
+    }
+
+    fn tokens(&mut self, path: &Path, bytes: &[u8], depth: usize) -> Result<(), PbrtError> {
+        let mut tokens = Tokens { text: bytes, at: 0, line: 1 };
         let at = |line: usize, problem: String| PbrtError::At { path: path.to_owned(), line, problem };
         let mut pending = tokens.next().map_err(|p| at(tokens.line, p))?;
         while let Some((token, line)) = pending.take() {
@@ -325,6 +355,9 @@ impl Reader {
             }
             "Include" | "Import" => {
                 let file = self.root.join(args.string(name)?);
+                if self.reading.contains(&file) {
+                    return Err(Directive::Problem(format!("{} includes itself (an include cycle)", file.display())));
+                }
                 if depth + 1 >= MAX_INCLUDE_DEPTH {
                     return Err(Directive::Problem(format!("includes nest more than {MAX_INCLUDE_DEPTH} deep")));
                 }

@@ -253,3 +253,96 @@ fn concurrent_renders_build_each_cache_entry_once() {
         assert!(bytes(d, &format!("r{k}.exr")) == bytes(d, "alone.exr"), "render {k} differs");
     }
 }
+
+/// Stops the one-node Slurm cluster in `.0` when dropped (also when the test fails).
+struct Cluster(std::path::PathBuf);
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        let _ = Command::new("bash").arg(format!("{ROOT}/tools/slurm_one_node.sh")).arg("stop").arg(&self.0).status();
+    }
+}
+
+/// tools/slurm_parts.sh under Slurm itself (a one-node cluster, tools/slurm_one_node.sh): array
+/// jobs for a render and a converge run, one render task requeued mid-way as a preemption would
+/// (SIGTERM, then the same task again, resuming), merged by jobs that depend on the arrays, and
+/// the results are those of single runs byte for byte. Skipped, saying so, where the daemons
+/// cannot start (Slurm not installed, not root).
+#[test]
+fn the_slurm_script_meets_slurm() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ports: Vec<u16> =
+        (0..2).map(|_| std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()).collect();
+    let started = Command::new("bash")
+        .arg(format!("{ROOT}/tools/slurm_one_node.sh"))
+        .arg("start")
+        .arg(d.join("cluster"))
+        .env("SLURM_PORTS", format!("{} {}", ports[0], ports[1]))
+        .output();
+    let _cluster = Cluster(d.join("cluster"));
+    match started {
+        Ok(out) if out.status.success() => {}
+        Ok(out) => return eprintln!("skipped: no Slurm cluster here: {}", String::from_utf8_lossy(&out.stderr)),
+        Err(e) => return eprintln!("skipped: no bash: {e}"),
+    }
+    let sh = |script: &str| -> String {
+        let out = Command::new("bash")
+            .args(["-c", script])
+            .env("SLURM_CONF", d.join("cluster/slurm.conf"))
+            .env("DUALHAIR", env!("CARGO_BIN_EXE_dualhair"))
+            .env("DUALHAIR_CACHE", format!("{}/dualhair-cache", env!("CARGO_TARGET_TMPDIR")))
+            .current_dir(d)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{script}: {}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stdout).trim().to_owned()
+    };
+    let scene = format!("{ROOT}/scenes/brown.json");
+    let render = format!("{scene} --width 48 --height 48 --spp 900");
+    succeeds(&["render", &scene, "--width", "8", "--height", "8", "--spp", "1", "-q", "-o", "warm.exr"], d);
+    // The script asks for 16 CPUs a task; the command line gives what this node has.
+    let submit = |tasks: &str, args: &str| {
+        let script = format!("{ROOT}/tools/slurm_parts.sh");
+        sh(&format!("sbatch --parsable --array=1-{tasks} --cpus-per-task=1 --open-mode=append {script} {args}"))
+    };
+    let job = submit("3", &format!("render parts {render}"));
+    let merge =
+        |array: &str, what: &str| sh(&format!("sbatch --parsable --dependency=afterok:{array} --wrap '{what}'"));
+    let merged =
+        merge(&job, "$DUALHAIR merge parts/part-1-of-3.exr parts/part-2-of-3.exr parts/part-3-of-3.exr -o merged.exr");
+    let converge = "converge SCENE --width 16 --height 16 --methods dual-importance,path-uniform --spp 1,2,4 --seeds 2 --truth-spp 16";
+    let converge = converge.replace("SCENE", &scene);
+    let runs = submit("2", &converge.replacen("converge", "converge runs", 1));
+    let gathered = merge(&runs, "$DUALHAIR merge runs/part-1-of-2 runs/part-2-of-2 -o gathered");
+    // Preempt task 2 once it has rendered for a while.
+    let state = |task: &str| sh(&format!("squeue -h -j {task} -o %T"));
+    let task = format!("{job}_2");
+    let wait = |done: &dyn Fn() -> bool, what: &str| {
+        let start = std::time::Instant::now();
+        while !done() {
+            assert!(start.elapsed() < Duration::from_secs(600), "waited 10 minutes for {what}");
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    };
+    wait(&|| state(&task) == "RUNNING", "task 2 to start");
+    std::thread::sleep(Duration::from_secs(2));
+    sh(&format!("scontrol requeue {task}"));
+    wait(&|| sh("squeue -h -o %i").is_empty(), "the jobs to finish");
+    for id in [&job, &merged, &runs, &gathered] {
+        let show = sh(&format!("scontrol show job {id}"));
+        assert_eq!(show.matches("JobState=").count(), show.matches("JobState=COMPLETED").count(), "{show}");
+    }
+    assert!(sh(&format!("scontrol show job {task}")).contains("Restarts=1"));
+    let log = std::fs::read_to_string(d.join(format!("dualhair-parts-{job}_2.log"))).unwrap();
+    assert!(log.contains("interrupted: wrote") && log.contains("of them resumed"), "{log}");
+    succeeds(&["render", &scene, "--width", "48", "--height", "48", "--spp", "900", "-q", "-o", "single.exr"], d);
+    assert!(bytes(d, "merged.exr") == bytes(d, "single.exr"), "the merged parts differ from one render");
+    let args: Vec<&str> = converge.split(' ').collect();
+    succeeds(&[&args[..], &["-q", "-o", "single"]].concat(), d);
+    let measures = |run: &str| -> Vec<String> {
+        let csv = std::fs::read_to_string(d.join(run).join("results.csv")).unwrap();
+        csv.lines().map(|l| l.split(',').enumerate().filter(|(i, _)| *i != 3).map(|(_, v)| v).collect()).collect()
+    };
+    assert_eq!(measures("gathered"), measures("single"));
+}

@@ -454,8 +454,15 @@ impl Reader<'_> {
                 if s.points.len() > first && s.points.last() == Some(&point) {
                     continue;
                 }
+                let radius = lerp(u, r0, r1) as f32;
+                if !point.is_finite() {
+                    return Err(format!("a curve point is {point} after the transform, beyond f32's range"));
+                }
+                if !(radius > 0.0 && radius.is_finite()) {
+                    return Err(format!("a curve's radius is {radius} after the transform (scaled by {scale:e})"));
+                }
                 s.points.push(point);
-                s.radii.push(lerp(u, r0, r1) as f32);
+                s.radii.push(radius);
             }
         }
         if s.points.len() - first < 2 {

@@ -73,3 +73,8 @@ fn obj_inputs_load_or_fail_cleanly() {
 fn pbrt_inputs_load_or_fail_cleanly() {
     replay("pbrt", entries::pbrt);
 }
+
+#[test]
+fn usd_inputs_load_or_fail_cleanly() {
+    replay("usd", entries::usd);
+}

@@ -9,7 +9,7 @@ use dualhair::light::EnvMap;
 use dualhair::meshes::parse_obj;
 use dualhair::scene::SceneFile;
 use precompute::density::parse_vdb;
-use precompute::strands::{Generator, parse_hair, parse_pbrt_curves};
+use precompute::strands::{Generator, parse_hair, parse_pbrt_curves, parse_usd_curves};
 use std::error::Error;
 use std::path::{Component, Path};
 
@@ -64,6 +64,19 @@ pub fn pbrt(data: &[u8]) -> Result<(), String> {
     };
     let strands = parse_pbrt_curves(Path::new(NAME), &read).map_err(|e| message(&e));
     named(strands.map(|s| s.validate().expect("parse_pbrt_curves returned strands that do not validate")), "fuzz.pbrt")
+}
+
+/// A USD stage's BasisCurves, its file in memory as the only file there is (so every layer it
+/// refers to is missing: reads are confined by construction). The name, which gives the format,
+/// is chosen by the magic number: the seeds are real .usda, .usdc and .usdz files.
+pub fn usd(data: &[u8]) -> Result<(), String> {
+    let name = match data {
+        [b'P', b'X', b'R', b'-', b'U', b'S', b'D', b'C', ..] => "fuzz.usdc",
+        [b'P', b'K', ..] => "fuzz.usdz",
+        _ => "fuzz.usda",
+    };
+    let strands = parse_usd_curves(name, data).map_err(|e| message(&e));
+    named(strands.map(|s| s.validate().expect("parse_usd_curves returned strands that do not validate")), name)
 }
 
 /// A scene file, parsed and built (hair, meshes, camera, lights, BVH).

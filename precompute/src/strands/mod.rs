@@ -5,34 +5,41 @@
 //! the radius of each segment the mean of its end radii). Units are the scene's; radii are half the
 //! thickness stored in a .hair file.
 
+mod curves;
 mod generate;
 mod hair_format;
 mod pbrt_curves;
+mod usd;
 
 pub use generate::{Ball, Curly, GenerateError, Generator, MAX_STRAND_POINTS, MAX_TOTAL_POINTS, Scalp, Straight, Wavy};
 pub use hair_format::{HairError, parse_hair, read_hair, write_hair};
 pub use pbrt_curves::{PbrtError, parse_pbrt_curves, read_pbrt_curves};
+pub use usd::{UsdError, parse_usd_curves, read_usd_curves};
 
 use glam::Vec3;
 use std::path::Path;
 
-/// Hair files this crate reads, by name: Cem Yuksel's .hair (also gzipped, `.hair.gz`) and
-/// pbrt-v4 scenes (`.pbrt`, `.pbrt.gz`), whose curve shapes become strands.
+/// Hair files this crate reads, by name: Cem Yuksel's .hair (also gzipped, `.hair.gz`),
+/// pbrt-v4 scenes (`.pbrt`, `.pbrt.gz`), whose curve shapes become strands, and USD stages
+/// (`.usda`, `.usdc`, `.usd`, `.usdz`), whose BasisCurves prims do.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum HairFormat {
     Hair,
     Pbrt,
+    Usd,
 }
 
 impl HairFormat {
     /// The format of the file `path` names, if it is one of the hair formats.
     pub fn of(path: &Path) -> Option<HairFormat> {
-        let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
-        let name = name.strip_suffix(".gz").unwrap_or(&name);
+        let full = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+        let name = full.strip_suffix(".gz").unwrap_or(&full);
         if name.ends_with(".hair") {
             Some(HairFormat::Hair)
         } else if name.ends_with(".pbrt") {
             Some(HairFormat::Pbrt)
+        } else if [".usda", ".usdc", ".usd", ".usdz"].iter().any(|e| full.ends_with(e)) {
+            Some(HairFormat::Usd)
         } else {
             None
         }
@@ -46,7 +53,9 @@ pub enum ReadError {
     Hair(#[from] HairError),
     #[error(transparent)]
     Pbrt(#[from] PbrtError),
-    #[error("{}: not a hair file this reader knows (.hair, .hair.gz, .pbrt or .pbrt.gz)", .0.display())]
+    #[error(transparent)]
+    Usd(#[from] UsdError),
+    #[error("{}: not a hair file this reader knows (.hair, .hair.gz, .pbrt, .pbrt.gz, .usda, .usdc, .usd or .usdz)", .0.display())]
     Unknown(std::path::PathBuf),
 }
 
@@ -55,6 +64,7 @@ pub fn read_strands(path: &Path) -> Result<Strands, ReadError> {
     match HairFormat::of(path) {
         Some(HairFormat::Hair) => Ok(read_hair(path)?),
         Some(HairFormat::Pbrt) => Ok(read_pbrt_curves(path)?),
+        Some(HairFormat::Usd) => Ok(read_usd_curves(path)?),
         None => Err(ReadError::Unknown(path.to_owned())),
     }
 }

@@ -1,6 +1,8 @@
-//! pbrt-v4 curve import: hand-written files with known segment counts, lengths and widths, the
-//! polyline's distance to the exact curve, transforms, includes (gzipped too), the layout of a
-//! real pbrt-v4 hair scene, and bad input named by file and line.
+//! Curve formats. pbrt-v4: hand-written files with known segment counts, lengths and widths,
+//! the polyline's distance to the exact curve, transforms, includes (gzipped too), the layout of
+//! a real pbrt-v4 hair scene, and bad input named by file and line. USD: hand-written stages with
+//! known points, transforms and widths, each cubic basis against its own formula, and bad input
+//! named by file and prim.
 
 use glam::DVec3;
 use precompute::strands::{PbrtError, Strands, read_pbrt_curves, read_strands};
@@ -257,4 +259,187 @@ fn truncated_and_corrupted_files_never_panic() {
         }
         read(&data);
     }
+}
+
+// USD (BasisCurves): hand-written stages with known counts, transforms and widths.
+
+const USD_LINEAR: &str = r#"#usda 1.0
+(
+    upAxis = "Z"
+)
+
+def Xform "Groom"
+{
+    double3 xformOp:translate = (10, 20, 30)
+    float xformOp:rotateZ = 90
+    float3 xformOp:scale = (2, 2, 2)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateZ", "xformOp:scale"]
+
+    def BasisCurves "Strands"
+    {
+        uniform token type = "linear"
+        int[] curveVertexCounts = [3, 2]
+        point3f[] points = [(1, 0, 0), (1, 0, 1), (1, 0, 2), (0, 1, 0), (0, 1, 4)]
+        float[] widths = [0.1, 0.2, 0.3, 0.4, 0.5] (
+            interpolation = "vertex"
+        )
+        double3 xformOp:translate = (0, 0, 5)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+}
+
+def Scope "Other"
+{
+    def BasisCurves "Bezier"
+    {
+        uniform token type = "cubic"
+        uniform token basis = "bezier"
+        int[] curveVertexCounts = [7]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0), (3, 1, 0), (3, 2, 0), (3, 3, 0)]
+        float[] widths = [0.2] (
+            interpolation = "constant"
+        )
+    }
+}
+"#;
+
+#[test]
+fn usd_linear_and_bezier_curves_come_out_in_world_space() {
+    let dir = Dir::new("usd");
+    let s = read_strands(&dir.write("groom.usda", USD_LINEAR)).unwrap();
+    assert_eq!(s.offsets, [0, 3, 5, 8]);
+    // The prim's translate, then its parent's scale, rotation by 90 degrees about z and
+    // translate, worked by hand; widths halved and scaled by 2.
+    let want = [[10.0, 22.0, 40.0], [10.0, 22.0, 42.0], [10.0, 22.0, 44.0], [8.0, 20.0, 40.0], [8.0, 20.0, 48.0]];
+    for (k, (p, q)) in s.points.iter().zip(want).enumerate() {
+        assert!(p.as_dvec3().distance(DVec3::from_array(q)) < 1e-5, "point {k}: {p} vs {q:?}");
+    }
+    for (r, w) in s.radii.iter().zip([0.1, 0.2, 0.3, 0.4, 0.5]) {
+        assert!((*r as f64 - w).abs() < 1e-6, "{r} vs {w}");
+    }
+    // Two straight cubic Bezier segments: one piece each, through their end points.
+    let (bezier, radii) = strand(&s, 2);
+    assert_eq!(bezier, [DVec3::ZERO, DVec3::new(3.0, 0.0, 0.0), DVec3::new(3.0, 3.0, 0.0)]);
+    assert!(radii.iter().all(|&r| (r - 0.1).abs() < 1e-7), "{radii:?}");
+}
+
+#[test]
+fn usd_catmull_rom_and_bspline_curves_follow_their_basis() {
+    let dir = Dir::new("usd-cubic");
+    // A quarter circle's worth of points; pinned curves reach both end points, Catmull-Rom
+    // passes through every point, and every piece stays within a tenth of the radius of the
+    // exact curve (checked on the uniform B-spline's and Catmull-Rom's own formulas).
+    let p = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 1.0, 0.0], [2.0, 2.0, 1.0], [1.0, 3.0, 1.0]];
+    let points = p.iter().map(|q| format!("({}, {}, {})", q[0], q[1], q[2])).collect::<Vec<_>>().join(", ");
+    let p: Vec<DVec3> = p.iter().map(|q| DVec3::from_array(*q)).collect();
+    for (basis, wrap, segments) in
+        [("catmullRom", "pinned", 4), ("catmullRom", "nonperiodic", 2), ("bspline", "pinned", 4)]
+    {
+        let text = format!(
+            "#usda 1.0\ndef BasisCurves \"C\"\n{{\n    uniform token type = \"cubic\"\n    uniform token basis = \"{basis}\"\n    \
+             uniform token wrap = \"{wrap}\"\n    int[] curveVertexCounts = [5]\n    point3f[] points = [{points}]\n    \
+             float[] widths = [0.02]\n    (interpolation = \"constant\")\n}}\n"
+        );
+        let s = read_strands(&dir.write(&format!("{basis}-{wrap}.usda"), &text)).unwrap();
+        let (line, _) = strand(&s, 0);
+        // Phantom end points where pinned: 2 P0 - P1 and 2 P4 - P3.
+        let at = |i: isize| match i {
+            -1 => 2.0 * p[0] - p[1],
+            5 => 2.0 * p[4] - p[3],
+            i => p[i as usize],
+        };
+        let first = if wrap == "pinned" { -1 } else { 0 };
+        for k in 0..segments {
+            let q = [at(first + k), at(first + k + 1), at(first + k + 2), at(first + k + 3)];
+            for i in 0..=100 {
+                let u = i as f64 / 100.0;
+                let exact = if basis == "bspline" { bspline(&q, u) } else { catmull_rom(&q, u) };
+                let d = to_polyline(exact, &line);
+                assert!(d <= 0.1 * 0.01 + 1e-9, "{basis} {wrap} segment {k} u {u}: {d}");
+            }
+        }
+        let ends = if wrap == "pinned" { (p[0], p[4]) } else { (p[1], p[3]) };
+        assert!(line[0].distance(ends.0) < 1e-6 && line.last().unwrap().distance(ends.1) < 1e-6, "{basis} {wrap}");
+        if basis == "catmullRom" {
+            let inner = if wrap == "pinned" { &p[..] } else { &p[1..4] };
+            for q in inner {
+                assert!(line.iter().any(|x| x.distance(*q) < 1e-6), "{basis} {wrap} misses {q}");
+            }
+        }
+    }
+}
+
+/// A uniform cubic B-spline segment at u (its basis functions).
+fn bspline(q: &[DVec3; 4], u: f64) -> DVec3 {
+    let v = 1.0 - u;
+    (v * v * v * q[0]
+        + (3.0 * u * u * u - 6.0 * u * u + 4.0) * q[1]
+        + (-3.0 * u * u * u + 3.0 * u * u + 3.0 * u + 1.0) * q[2]
+        + u * u * u * q[3])
+        / 6.0
+}
+
+/// A uniform Catmull-Rom segment from q1 to q2 at u (its polynomial form).
+fn catmull_rom(q: &[DVec3; 4], u: f64) -> DVec3 {
+    0.5 * (2.0 * q[1]
+        + (q[2] - q[0]) * u
+        + (2.0 * q[0] - 5.0 * q[1] + 4.0 * q[2] - q[3]) * u * u
+        + (3.0 * q[1] - q[0] - 3.0 * q[2] + q[3]) * u * u * u)
+}
+
+#[test]
+fn bad_usd_files_name_their_file_and_prim() {
+    let dir = Dir::new("usd-bad");
+    let prim = |body: &str| {
+        format!("#usda 1.0\ndef Xform \"G\"\n{{\n    def BasisCurves \"Bad\"\n    {{\n{body}\n    }}\n}}\n")
+    };
+    let linear = "uniform token type = \"linear\"\n";
+    for (name, text, expect) in [
+        (
+            "counts.usda",
+            prim(&format!("{linear}int[] curveVertexCounts = [3]\npoint3f[] points = [(0, 0, 0), (0, 0, 1)]")),
+            "/G/Bad: curveVertexCounts add up to 3, but there are 2 points",
+        ),
+        (
+            "periodic.usda",
+            prim(
+                "uniform token wrap = \"periodic\"\nint[] curveVertexCounts = [4]\npoint3f[] points = [(0, 0, 0), (0, 0, 1), (0, 1, 1), (0, 1, 0)]",
+            ),
+            "periodic",
+        ),
+        (
+            "bezier.usda",
+            prim(
+                "int[] curveVertexCounts = [5]\npoint3f[] points = [(0, 0, 0), (0, 0, 1), (0, 1, 1), (0, 1, 0), (1, 1, 0)]",
+            ),
+            "curve 0: 5 vertices: a cubic Bezier curve takes 4 + 3 k",
+        ),
+        (
+            "widths.usda",
+            prim(&format!(
+                "{linear}int[] curveVertexCounts = [2]\npoint3f[] points = [(0, 0, 0), (0, 0, 1)]\nfloat[] widths = [1, 2, 3]"
+            )),
+            "3 widths, where vertex interpolation takes 2",
+        ),
+        (
+            "zero.usda",
+            prim(&format!(
+                "{linear}int[] curveVertexCounts = [2]\npoint3f[] points = [(0, 0, 0), (0, 0, 1)]\nfloat[] widths = [0, 0]"
+            )),
+            "radius is 0",
+        ),
+        (
+            "same.usda",
+            prim(&format!("{linear}int[] curveVertexCounts = [2]\npoint3f[] points = [(0, 0, 0), (0, 0, 0)]")),
+            "all coincide",
+        ),
+        ("none.usda", "#usda 1.0\ndef Xform \"G\"\n{\n}\n".into(), "holds no BasisCurves prim"),
+        ("broken.usda", "#usda 1.0\ndef Xform \"G\"\n{\n".into(), "cannot read"),
+    ] {
+        let path = dir.write(name, &text);
+        let message = read_strands(&path).unwrap_err().to_string();
+        assert!(message.contains(&path.display().to_string()) && message.contains(expect), "{name}: {message}");
+    }
+    let message = read_strands(&dir.0.join("missing.usdc")).unwrap_err().to_string();
+    assert!(message.contains("missing.usdc"), "{message}");
 }

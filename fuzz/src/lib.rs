@@ -66,17 +66,17 @@ pub fn pbrt(data: &[u8]) -> Result<(), String> {
     named(strands.map(|s| s.validate().expect("parse_pbrt_curves returned strands that do not validate")), "fuzz.pbrt")
 }
 
-/// A USD stage's BasisCurves, its file in memory as the only file there is (so every layer it
-/// refers to is missing: reads are confined by construction). The name, which gives the format,
-/// is chosen by the magic number: the seeds are real .usda, .usdc and .usdz files.
+/// A USD stage's BasisCurves, from a text (.usda) file in memory as the only file there is (so
+/// every layer it refers to is missing: reads are confined by construction). Binary crate files
+/// (.usdc, and .usdz packages of them) are not fuzzed: openusd 0.6's crate reader sizes its
+/// buffers by the file's own counts (fuzz/README.md, "Open findings").
 pub fn usd(data: &[u8]) -> Result<(), String> {
-    let name = match data {
-        [b'P', b'X', b'R', b'-', b'U', b'S', b'D', b'C', ..] => "fuzz.usdc",
-        [b'P', b'K', ..] => "fuzz.usdz",
-        _ => "fuzz.usda",
-    };
-    let strands = parse_usd_curves(name, data).map_err(|e| message(&e));
-    named(strands.map(|s| s.validate().expect("parse_usd_curves returned strands that do not validate")), name)
+    const NAME: &str = "fuzz.usda";
+    if data.starts_with(b"PXR-USDC") || data.starts_with(b"PK") {
+        return Err("fuzz: a crate file or package, not fuzzed".into());
+    }
+    let strands = parse_usd_curves(NAME, data).map_err(|e| message(&e));
+    named(strands.map(|s| s.validate().expect("parse_usd_curves returned strands that do not validate")), NAME)
 }
 
 /// A scene file, parsed and built (hair, meshes, camera, lights, BVH).

@@ -101,6 +101,12 @@ fn local_to_world(stage: &Stage, path: &sdf::Path, t: TimeCode) -> Result<DMat4,
     let mut at = Some(path.clone());
     while let Some(p) = at.filter(|p| !p.is_abs_root()) {
         let x = AnyXformable(stage.prim(p.clone()));
+        // openusd 0.6 loops forever on an op that is not an attribute name ("xformOp:scale}").
+        for op in x.xform_op_order().map_err(text)?.unwrap_or_default() {
+            if !is_op_name(&op) {
+                return Err(format!("{}: xformOpOrder holds {op:?}, which names no transform op", p.as_str()));
+            }
+        }
         m = m * x.local_to_parent_transform(t).map_err(text)?;
         if x.resets_xform_stack().map_err(text)? {
             break;
@@ -108,6 +114,21 @@ fn local_to_world(stage: &Stage, path: &sdf::Path, t: TimeCode) -> Result<DMat4,
         at = p.parent();
     }
     Ok(DMat4::from_cols_array(&m.0))
+}
+
+/// Whether an entry of `xformOpOrder` is `!resetXformStack!` or names an op attribute: an
+/// optional `!invert!`, then `xformOp:` and identifiers joined by colons.
+fn is_op_name(op: &str) -> bool {
+    let identifier = |s: &str| {
+        s.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+            && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+    };
+    op == "!resetXformStack!"
+        || op
+            .strip_prefix("!invert!")
+            .unwrap_or(op)
+            .strip_prefix("xformOp:")
+            .is_some_and(|rest| rest.split(':').all(identifier))
 }
 
 fn curves(stage: &Stage, path: &Path) -> Result<Strands, UsdError> {

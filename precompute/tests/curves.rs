@@ -404,6 +404,14 @@ fn bad_usd_files_name_their_file_and_prim() {
             "all coincide",
         ),
         ("none.usda", "#usda 1.0\ndef Xform \"G\"\n{\n}\n".into(), "holds no BasisCurves prim"),
+        ("brace.usda", "#usda 1.0\ndef Xform \"G}\"\n{\n}\n".into(), "/G} is not a prim path"),
+        (
+            "op.usda",
+            prim(&format!(
+                "{linear}int[] curveVertexCounts = [2]\npoint3f[] points = [(0, 0, 0), (0, 0, 1)]\nuniform token[] xformOpOrder = [\"xformOp:scale}}\"]"
+            )),
+            "xformOpOrder holds \"xformOp:scale}\"",
+        ),
         ("broken.usda", "#usda 1.0\ndef Xform \"G\"\n{\n".into(), "cannot read"),
     ] {
         let path = dir.write(name, &text);

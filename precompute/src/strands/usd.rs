@@ -131,9 +131,41 @@ fn is_op_name(op: &str) -> bool {
             .is_some_and(|rest| rest.split(':').all(identifier))
 }
 
+/// Whether a spec path of a layer names its prims by identifiers (`/A/B`, with variant
+/// selections `{set=variant}`, and what follows a `.` or `[` left to openusd): openusd 0.6
+/// recurses without end composing a prim named `Ze}a`.
+fn is_prim_path(spec: &str) -> bool {
+    let identifier = |s: &str| {
+        s.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+            && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+    };
+    let prims = spec.split(['.', '[']).next().unwrap_or_default();
+    prims == "/"
+        || prims.strip_prefix('/').is_some_and(|rest| {
+            rest.split('/').all(|element| {
+                let mut parts = element.split('{');
+                let name = parts.next().unwrap_or_default();
+                identifier(name)
+                    && parts.all(|v| {
+                        v.strip_suffix('}').and_then(|v| v.split_once('=')).is_some_and(|(set, variant)| {
+                            identifier(set) && (variant.is_empty() || identifier(variant))
+                        })
+                    })
+            })
+        })
+}
+
 fn curves(stage: &Stage, path: &Path) -> Result<Strands, UsdError> {
     let t = TimeCode::new(stage.start_time_code());
     let stage_error = |e| UsdError::Stage { path: path.to_owned(), problem: text(e) };
+    for id in stage.layer_identifiers() {
+        let Some(layer) = stage.layer(&id) else { continue };
+        if let Some(bad) = layer.data().spec_paths().into_iter().find(|p| !is_prim_path(p.as_str())) {
+            let layer = if Path::new(&id) == path { String::new() } else { format!(" (in {id})") };
+            let problem = format!("{} is not a prim path{layer}", bad.as_str());
+            return Err(UsdError::Stage { path: path.to_owned(), problem });
+        }
+    }
     let mut prims = Vec::new();
     stage.traverse(usd::PrimPredicate::DEFAULT, |p| prims.push(p.clone())).map_err(stage_error)?;
     let mut strands = Strands { offsets: vec![0], ..Strands::default() };

@@ -116,13 +116,15 @@ fn local_to_world(stage: &Stage, path: &sdf::Path, t: TimeCode) -> Result<DMat4,
     Ok(DMat4::from_cols_array(&m.0))
 }
 
+/// Whether `s` is a USD identifier: a letter or underscore, then letters, digits and underscores.
+fn identifier(s: &str) -> bool {
+    s.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
 /// Whether an entry of `xformOpOrder` is `!resetXformStack!` or names an op attribute: an
 /// optional `!invert!`, then `xformOp:` and identifiers joined by colons.
 fn is_op_name(op: &str) -> bool {
-    let identifier = |s: &str| {
-        s.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
-            && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
-    };
     op == "!resetXformStack!"
         || op
             .strip_prefix("!invert!")
@@ -135,10 +137,6 @@ fn is_op_name(op: &str) -> bool {
 /// selections `{set=variant}`, and what follows a `.` or `[` left to openusd): openusd 0.6
 /// recurses without end composing a prim named `Ze}a`.
 fn is_prim_path(spec: &str) -> bool {
-    let identifier = |s: &str| {
-        s.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
-            && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
-    };
     let prims = spec.split(['.', '[']).next().unwrap_or_default();
     prims == "/"
         || prims.strip_prefix('/').is_some_and(|rest| {

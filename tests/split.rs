@@ -299,7 +299,7 @@ fn the_slurm_script_meets_slurm() {
         String::from_utf8_lossy(&out.stdout).trim().to_owned()
     };
     let scene = format!("{ROOT}/scenes/brown.json");
-    let render = format!("{scene} --width 48 --height 48 --spp 900");
+    let render = format!("{scene} --width 48 --height 48 --spp 1800");
     succeeds(&["render", &scene, "--width", "8", "--height", "8", "--spp", "1", "-q", "-o", "warm.exr"], d);
     // The script asks for 16 CPUs a task; the command line gives what this node has.
     let submit = |tasks: &str, args: &str| {
@@ -336,7 +336,7 @@ fn the_slurm_script_meets_slurm() {
     assert!(sh(&format!("scontrol show job {task}")).contains("Restarts=1"));
     let log = std::fs::read_to_string(d.join(format!("dualhair-parts-{job}_2.log"))).unwrap();
     assert!(log.contains("interrupted: wrote") && log.contains("of them resumed"), "{log}");
-    succeeds(&["render", &scene, "--width", "48", "--height", "48", "--spp", "900", "-q", "-o", "single.exr"], d);
+    succeeds(&["render", &scene, "--width", "48", "--height", "48", "--spp", "1800", "-q", "-o", "single.exr"], d);
     assert!(bytes(d, "merged.exr") == bytes(d, "single.exr"), "the merged parts differ from one render");
     let args: Vec<&str> = converge.split(' ').collect();
     succeeds(&[&args[..], &["-q", "-o", "single"]].concat(), d);

@@ -404,7 +404,12 @@ fn bad_usd_files_name_their_file_and_prim() {
             "all coincide",
         ),
         ("none.usda", "#usda 1.0\ndef Xform \"G\"\n{\n}\n".into(), "holds no BasisCurves prim"),
-        ("brace.usda", "#usda 1.0\ndef Xform \"G}\"\n{\n}\n".into(), "/G} is not a prim path"),
+        (
+            "arc.usda",
+            "#usda 1.0\ndef Xform \"G\" (\n    references = </G}x>\n)\n{\n}\n".into(),
+            "/G's references \"/G}x\" is not a prim path",
+        ),
+        ("brace.usda", "#usda 1.0\ndef Xform \"G}\"\n{\n}\n".into(), "\"/G}\" is not a prim path"),
         (
             "op.usda",
             prim(&format!(

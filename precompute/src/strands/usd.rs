@@ -133,24 +133,51 @@ fn is_op_name(op: &str) -> bool {
             .is_some_and(|rest| rest.split(':').all(identifier))
 }
 
-/// Whether a spec path of a layer names its prims by identifiers (`/A/B`, with variant
-/// selections `{set=variant}`, and what follows a `.` or `[` left to openusd): openusd 0.6
-/// recurses without end composing a prim named `Ze}a`.
-fn is_prim_path(spec: &str) -> bool {
-    let prims = spec.split(['.', '[']).next().unwrap_or_default();
-    prims == "/"
-        || prims.strip_prefix('/').is_some_and(|rest| {
-            rest.split('/').all(|element| {
-                let mut parts = element.split('{');
-                let name = parts.next().unwrap_or_default();
-                identifier(name)
-                    && parts.all(|v| {
-                        v.strip_suffix('}').and_then(|v| v.split_once('=')).is_some_and(|(set, variant)| {
-                            identifier(set) && (variant.is_empty() || identifier(variant))
-                        })
-                    })
-            })
+/// Whether a path names its prims by identifiers (`/A/B`, relative `../A`, with variant
+/// selections `{set=variant}`; what follows a `.` or `[` is left to openusd): openusd 0.6 loops
+/// or recurses without end composing a prim named `Ze}a` or a reference to `</C}x>`.
+fn is_prim_path(path: &str) -> bool {
+    let mut rest = path.strip_prefix('/').unwrap_or(path);
+    while let Some(up) = rest.strip_prefix("..") {
+        rest = up.strip_prefix('/').unwrap_or(up);
+    }
+    let prims = rest.split(['.', '[']).next().unwrap_or_default();
+    prims.is_empty()
+        || prims.split('/').all(|element| {
+            let mut parts = element.split('{');
+            identifier(parts.next().unwrap_or_default())
+                && parts.all(|v| {
+                    v.strip_suffix('}')
+                        .and_then(|v| v.split_once('='))
+                        .is_some_and(|(set, variant)| identifier(set) && (variant.is_empty() || identifier(variant)))
+                })
         })
+}
+
+/// The first path in `layer`, among its specs and the targets of their composition arcs and
+/// relationships, that [`is_prim_path`] refuses.
+fn bad_path(layer: &sdf::Layer) -> Option<String> {
+    let data = layer.data();
+    for spec in data.spec_paths() {
+        if !is_prim_path(spec.as_str()) {
+            return Some(format!("{:?}", spec.as_str()));
+        }
+        for field in data.list_fields(&spec).unwrap_or_default() {
+            let Ok(Some(value)) = data.try_field(&spec, &field) else { continue };
+            let targets: Vec<sdf::Path> = match value.as_ref() {
+                sdf::Value::PathListOp(op) => op.flatten(),
+                sdf::Value::PathVec(v) => v.clone(),
+                sdf::Value::ReferenceListOp(op) => op.flatten().into_iter().map(|r| r.prim_path).collect(),
+                sdf::Value::PayloadListOp(op) => op.flatten().into_iter().map(|p| p.prim_path).collect(),
+                sdf::Value::Payload(p) => vec![p.prim_path.clone()],
+                _ => continue,
+            };
+            if let Some(bad) = targets.iter().find(|t| !is_prim_path(t.as_str())) {
+                return Some(format!("{}'s {field} {:?}", spec.as_str(), bad.as_str()));
+            }
+        }
+    }
+    None
 }
 
 fn curves(stage: &Stage, path: &Path) -> Result<Strands, UsdError> {
@@ -158,9 +185,9 @@ fn curves(stage: &Stage, path: &Path) -> Result<Strands, UsdError> {
     let stage_error = |e| UsdError::Stage { path: path.to_owned(), problem: text(e) };
     for id in stage.layer_identifiers() {
         let Some(layer) = stage.layer(&id) else { continue };
-        if let Some(bad) = layer.data().spec_paths().into_iter().find(|p| !is_prim_path(p.as_str())) {
+        if let Some(bad) = bad_path(&layer) {
             let layer = if Path::new(&id) == path { String::new() } else { format!(" (in {id})") };
-            let problem = format!("{} is not a prim path{layer}", bad.as_str());
+            let problem = format!("{bad} is not a prim path{layer}");
             return Err(UsdError::Stage { path: path.to_owned(), problem });
         }
     }

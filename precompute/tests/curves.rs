@@ -409,7 +409,12 @@ fn bad_usd_files_name_their_file_and_prim() {
             "#usda 1.0\ndef Xform \"G\" (\n    references = </G}x>\n)\n{\n}\n".into(),
             "/G's references \"/G}x\" is not a prim path",
         ),
-        ("brace.usda", "#usda 1.0\ndef Xform \"G}\"\n{\n}\n".into(), "\"/G}\" is not a prim path"),
+        (
+            "empty.usda",
+            "#usda 1.0\ndef Xform \"\"\n{\n    float x = 1\n}\n".into(),
+            "/'s child \"\" is not a prim path",
+        ),
+        ("brace.usda", "#usda 1.0\ndef Xform \"G}\"\n{\n}\n".into(), "/'s child \"G}\" is not a prim path"),
         (
             "op.usda",
             prim(&format!(

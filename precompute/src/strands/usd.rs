@@ -158,12 +158,21 @@ fn is_prim_path(path: &str) -> bool {
 /// relationships, that [`is_prim_path`] refuses.
 fn bad_path(layer: &sdf::Layer) -> Option<String> {
     let data = layer.data();
-    for spec in data.spec_paths() {
-        if !is_prim_path(spec.as_str()) {
+    let mut specs = data.spec_paths();
+    specs.sort_by(|a, b| a.as_str().cmp(b.as_str()));
+    for spec in specs {
+        // A prim named "" collapses into the root: its properties are the root's ("/.points").
+        if !is_prim_path(spec.as_str()) || spec.as_str().starts_with("/.") {
             return Some(format!("{:?}", spec.as_str()));
         }
         for field in data.list_fields(&spec).unwrap_or_default() {
             let Ok(Some(value)) = data.try_field(&spec, &field) else { continue };
+            if let sdf::Value::TokenVec(children) = value.as_ref()
+                && field == "primChildren"
+                && let Some(bad) = children.iter().find(|c| !identifier(c.as_str()))
+            {
+                return Some(format!("{}'s child {:?}", spec.as_str(), bad.as_str()));
+            }
             let targets: Vec<sdf::Path> = match value.as_ref() {
                 sdf::Value::PathListOp(op) => op.flatten(),
                 sdf::Value::PathVec(v) => v.clone(),

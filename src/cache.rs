@@ -43,6 +43,12 @@ impl Fnv {
         Fnv(0xcbf2_9ce4_8422_2325)
     }
 
+    /// A hash that starts from this build's [`CODE_ID`]: for fingerprints that another build
+    /// must not match (resumable renders, `converge`'s reused renders).
+    pub(crate) fn of_code() -> Fnv {
+        Fnv::new().bytes(CODE_ID.as_bytes())
+    }
+
     pub(crate) fn bytes(mut self, bytes: &[u8]) -> Fnv {
         for &b in bytes {
             self.0 = (self.0 ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3);

@@ -15,7 +15,7 @@
 //! noise, not error. Rerunning with the same `DIR` reuses every finished render whose scene and
 //! settings match, so an interrupted run picks up where it stopped.
 
-use crate::cache::{CODE_ID, Cache, Fnv};
+use crate::cache::{Cache, Fnv};
 use crate::compare::{hair_pixels, mean_variance, mse, rectangle};
 use crate::film::Film;
 use crate::interrupt::{self, Interrupted};
@@ -204,7 +204,7 @@ fn fingerprint(file: &SceneFile) -> String {
     f.render.seed = 0;
     f.render.integrator = IntegratorKind::Dual;
     f.render.sampling = Some(Sampling::Importance);
-    format!("{:016x}", Fnv::new().bytes(CODE_ID.as_bytes()).bytes(format!("{f:?}").as_bytes()).0)
+    format!("{:016x}", Fnv::of_code().bytes(format!("{f:?}").as_bytes()).0)
 }
 
 /// Seconds a finished render took, if `job`'s files exist and were made from this scene.

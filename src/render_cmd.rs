@@ -1,6 +1,6 @@
 //! `dualhair render`: renders a scene file to EXR and PNG.
 
-use crate::cache::{CODE_ID, Cache, Fnv, spinner};
+use crate::cache::{Cache, Fnv, spinner};
 use crate::dual::{
     AUTO_SINGLE_BELOW, DualModel, DualScattering, Shadows, crossing_mean, forward_cosine, predicted_multiple_share,
 };
@@ -284,7 +284,7 @@ pub fn render_into(
 fn render_id(file: &SceneFile, aovs: bool) -> RenderId {
     let mut f = file.clone();
     f.render.spp = 0;
-    let fingerprint = Fnv::new().bytes(CODE_ID.as_bytes()).bytes(format!("{f:?} aovs {aovs}").as_bytes()).0;
+    let fingerprint = Fnv::of_code().bytes(format!("{f:?} aovs {aovs}").as_bytes()).0;
     RenderId {
         fingerprint: format!("{fingerprint:016x}"),
         seed: file.render.seed,

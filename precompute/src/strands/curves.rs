@@ -16,7 +16,7 @@ const MAX_PIECES: usize = 64;
 /// radius at its start and end), consecutive segments sharing their end points. Points and radii
 /// beyond f32's range, and a strand whose points all coincide, are refused.
 pub(crate) fn append_strand(s: &mut Strands, segments: &[(Vec<DVec3>, f64, f64)]) -> Result<(), String> {
-    let first = s.points.len();
+    let (mut points, mut radii) = (Vec::new(), Vec::new());
     for (k, (bezier, r0, r1)) in segments.iter().enumerate() {
         let pieces = pieces(bezier, 0.1 * r0.min(*r1));
         let start = if k == 0 { 0 } else { 1 };
@@ -24,30 +24,26 @@ pub(crate) fn append_strand(s: &mut Strands, segments: &[(Vec<DVec3>, f64, f64)]
             let u = i as f64 / pieces as f64;
             let point = de_casteljau(bezier, u).as_vec3();
             // Coincident points (a degenerate segment) would make a zero-length capsule.
-            if s.points.len() > first && s.points.last() == Some(&point) {
+            if points.last() == Some(&point) {
                 continue;
             }
             let radius = lerp(u, *r0, *r1) as f32;
             if !point.is_finite() {
-                s.points.truncate(first);
-                s.radii.truncate(first);
                 return Err(format!("a curve point is {point} after the transform, beyond f32's range"));
             }
             if !(radius > 0.0 && radius.is_finite()) {
-                s.points.truncate(first);
-                s.radii.truncate(first);
                 return Err(format!("a curve's radius is {radius} after the transform"));
             }
-            s.points.push(point);
-            s.radii.push(radius);
+            points.push(point);
+            radii.push(radius);
         }
     }
-    if s.points.len() - first < 2 {
-        s.points.truncate(first);
-        s.radii.truncate(first);
+    if points.len() < 2 {
         return Err("a curve whose control points all coincide".into());
     }
-    let end = u32::try_from(s.points.len()).map_err(|_| "more than 2^32 points")?;
+    let end = u32::try_from(s.points.len() + points.len()).map_err(|_| "more than 2^32 points")?;
+    s.points.extend(points);
+    s.radii.extend(radii);
     s.offsets.push(end);
     Ok(())
 }

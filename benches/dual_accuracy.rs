@@ -49,15 +49,19 @@
 //! References are kept in `target/dual-accuracy/` and reused by name, size and spp: delete that
 //! folder after changing the path tracer or a scene.
 
-use dualhair::cache::Cache;
-use dualhair::compare::{
+use dualhair::analysis::compare::{
     block_relative_difference, block_relative_rmse, hair_pixels, mean_luminance, rectangle, relative_rmse,
 };
-use dualhair::dual::DualModel;
 use dualhair::film::Film;
-use dualhair::integrator::Term;
-use dualhair::render_cmd::{DualInputs, render_prepared};
-use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, OneOrRgb, Sampling, SceneFile, ShadowMode, SunSpec};
+use dualhair::integrators::Choice;
+use dualhair::integrators::Term;
+use dualhair::integrators::dual::DualModel;
+use dualhair::integrators::dual::cache::Cache;
+use dualhair::integrators::dual::options::ShadowMode;
+use dualhair::integrators::{IntegratorKind, Sampling};
+use dualhair::job::{dual_inputs, render_prepared};
+use dualhair::progress::Silent;
+use dualhair::scene::{EnvSpec, HairSpec, OneOrRgb, SceneFile, SunSpec};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -70,9 +74,9 @@ fn env_or<T: std::str::FromStr>(key: &str, default: T) -> T {
 fn timed_render(file: &SceneFile, cache: &Cache, terms: bool) -> (Film, f64) {
     let mut scene = file.build().unwrap();
     scene.render.terms = terms;
-    let inputs = DualInputs::load(&scene, cache, false).unwrap();
+    let inputs = dual_inputs(&scene, cache, &Silent).unwrap();
     let start = Instant::now();
-    let film = render_prepared(&scene, inputs.as_ref(), false).unwrap();
+    let film = render_prepared(&scene, inputs.as_ref(), &Silent).unwrap();
     (film, start.elapsed().as_secs_f64())
 }
 
@@ -206,10 +210,10 @@ fn main() {
                 dual.render.integrator = IntegratorKind::Dual;
                 dual.render.spp = dual_spp;
                 dual.render.seed = 1;
-                dual.dual.model = <DualModel as clap::ValueEnum>::from_str(model, true).unwrap();
-                dual.dual.shadows = <ShadowMode as clap::ValueEnum>::from_str(shadows, true).unwrap();
+                dual.dual.model = DualModel::named(model).unwrap();
+                dual.dual.shadows = ShadowMode::named(shadows).unwrap();
                 if let Ok(sampling) = std::env::var("DUALHAIR_ACC_SAMPLING") {
-                    dual.render.sampling = Some(<Sampling as clap::ValueEnum>::from_str(&sampling, true).unwrap());
+                    dual.render.sampling = Some(Sampling::named(&sampling).unwrap());
                 }
                 if let Ok(settings) = std::env::var("DUALHAIR_ACC_DUAL") {
                     // Each key replaces that field of the scene's `dual` section.

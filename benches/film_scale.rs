@@ -17,11 +17,14 @@ mod common;
 
 use common::CameraRaysAlone;
 use dualhair::film::Film;
-use dualhair::meshes::Meshes;
+use dualhair::geometry::meshes::Meshes;
+use dualhair::integrators::IntegratorKind;
+use dualhair::integrators::dual::inputs::DualInputs;
+use dualhair::integrators::dual::transmittance::ForwardLookup;
+use dualhair::job::render_prepared;
+use dualhair::progress::Silent;
 use dualhair::render::render_all;
-use dualhair::render_cmd::{DualInputs, render_prepared};
-use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, Scene, SceneFile};
-use dualhair::transmittance::ForwardLookup;
+use dualhair::scene::{EnvSpec, HairSpec, Scene, SceneFile};
 use precompute::density::DensityGrid;
 use precompute::strands::{Generator, Scalp, write_hair};
 use std::path::Path;
@@ -99,8 +102,8 @@ fn main() {
     );
     let fibers = stage(
         "BVH",
-        |f: &dualhair::fibers::Fibers| format!("BVH and capsules {}", mb(f.bytes())),
-        || dualhair::fibers::Fibers::new(&strands),
+        |f: &dualhair::geometry::strands::Fibers| format!("BVH and capsules {}", mb(f.bytes())),
+        || dualhair::geometry::strands::Fibers::new(&strands),
     );
     let mut scene = Scene {
         camera: file.camera(&strands).unwrap(),
@@ -112,7 +115,7 @@ fn main() {
         render: file.render.clone(),
         dual: file.dual.clone(),
     };
-    let tables = common::cache().tables(&scene.fiber, scene.dual.d_b, false).unwrap();
+    let tables = common::cache().tables(&scene.fiber, scene.dual.d_b, &Silent).unwrap();
     let grid = stage(
         "density grid",
         |g: &DensityGrid| format!("{} bricks of 8^3 voxels, {}", g.bricks().count(), mb(g.bricks().count() * 2048)),
@@ -121,7 +124,7 @@ fn main() {
     let lookup = stage(
         "forward-transmittance lookup",
         |l: &ForwardLookup| format!("{} maps, {}", l.maps(), mb(l.bytes())),
-        || ForwardLookup::build(&scene.strands, &scene.lights, &scene.dual.lookup, true),
+        || ForwardLookup::build(&scene.strands, &scene.lights, &scene.dual.lookup, &Silent),
     );
     let inputs = DualInputs { tables, grid, lookup: Some(lookup) };
     let samples = (file.camera.width * file.camera.height) as f64 * file.render.spp as f64;
@@ -137,7 +140,7 @@ fn main() {
         scene.render.integrator = integrator;
         let dual = (integrator == IntegratorKind::Dual).then_some(&inputs);
         rates.push(stage(&format!("render `{integrator:?}`, {spp}"), rate, || {
-            timed(&|| render_prepared(&scene, dual, false).unwrap())
+            timed(&|| render_prepared(&scene, dual, &Silent).unwrap())
         }));
     }
     let alone = stage(&format!("camera rays alone, {spp}"), rate, || {

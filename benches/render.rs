@@ -14,11 +14,14 @@ mod common;
 
 use common::{CameraRaysAlone, bpy_python};
 use dualhair::camera::Camera;
-use dualhair::fibers::Fibers;
+use dualhair::geometry::strands::Fibers;
+use dualhair::integrators::IntegratorKind;
+use dualhair::integrators::dual::options::ShadowMode;
+use dualhair::integrators::dual::transmittance::ForwardLookup;
+use dualhair::job::{dual_inputs, render_prepared};
+use dualhair::progress::Silent;
 use dualhair::render::render_all;
-use dualhair::render_cmd::{DualInputs, render_prepared};
-use dualhair::scene::{EnvSpec, HairSpec, IntegratorKind, OneOrRgb, SceneFile, ShadowMode, SunSpec};
-use dualhair::transmittance::ForwardLookup;
+use dualhair::scene::{EnvSpec, HairSpec, OneOrRgb, SceneFile, SunSpec};
 use glam::Vec3;
 use precompute::strands::{Generator, Scalp, read_hair};
 use rand::{Rng, SeedableRng};
@@ -165,15 +168,15 @@ fn main() {
             file.dual.light_samples = light_samples;
             let scene = file.build().unwrap();
             // Tables, grid and lookup first, so that only rendering is timed.
-            let inputs = DualInputs::load(&scene, &cache, false).unwrap();
+            let inputs = dual_inputs(&scene, &cache, &Silent).unwrap();
             if shadows == ShadowMode::Lookup && light_samples.is_some() {
                 let start = Instant::now();
-                let lookup = ForwardLookup::build(&scene.strands, &scene.lights, &file.dual.lookup, false);
+                let lookup = ForwardLookup::build(&scene.strands, &scene.lights, &file.dual.lookup, &Silent);
                 build = (start.elapsed().as_secs_f64(), lookup.bytes());
             }
             let samples = scene.camera.width * scene.camera.height * spp as usize;
             let start = Instant::now();
-            render_prepared(&scene, inputs.as_ref(), false).unwrap();
+            render_prepared(&scene, inputs.as_ref(), &Silent).unwrap();
             rates.push(samples as f64 / start.elapsed().as_secs_f64() / 1e6);
         }
         let scene = file.build().unwrap();

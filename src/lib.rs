@@ -1,39 +1,25 @@
 //! dualhair: a hair renderer that makes multiple scattering cheap.
 //!
-//! This crate is the renderer side: command-line arguments, image output and the commands of the
-//! `dualhair` binary. The fiber models and everything precomputed from them live in the
-//! `precompute` crate.
+//! The renderer as a library, in the order a render flows: a [`scene`] file describes the hair,
+//! meshes, [`camera`] and [`lights`]; [`geometry`] holds the strands' BVH and the meshes;
+//! [`integrators`] estimate the light along camera rays (`single`, `path`, and `dual` with what it
+//! precomputes); the [`render`] loop adds samples into sums that the [`film`] turns into images,
+//! written by [`output`]. [`analysis`] holds the comparison tools built on it (convergence runs,
+//! calibration, stability, lobe images, image metrics and charts). The fiber models and
+//! everything precomputed from them live in the `precompute` crate; the `dualhair` binary
+//! (`src/main.rs`, `src/cli/`) parses arguments and prints.
 
-pub mod cache;
-pub mod calibrate_cmd;
+pub mod analysis;
 pub mod camera;
-pub mod compare;
-pub mod compare_cmd;
-pub mod console;
-pub mod converge_cmd;
-pub mod convert_cmd;
-pub mod dual;
-pub mod fiber_args;
-pub mod fibers;
-pub mod fibersim_cmd;
 pub mod film;
-pub mod integrator;
-pub mod interrupt;
-pub mod light;
-pub mod lobe_cmd;
+pub mod fingerprint;
+pub mod geometry;
+pub mod integrators;
+pub mod job;
+pub mod lights;
 pub mod memory;
-pub mod merge_cmd;
-pub mod meshes;
 pub mod output;
-pub mod partial;
-pub mod plot;
-pub mod precompute_cmd;
+pub mod progress;
 pub mod render;
-pub mod render_cmd;
-pub mod resolve_cmd;
 pub mod sampler;
 pub mod scene;
-pub mod stability_cmd;
-pub mod tables_chart;
-pub mod transmittance;
-pub mod world;

@@ -1,16 +1,18 @@
+mod cli;
+
 use clap::{Parser, Subcommand};
-use dualhair::calibrate_cmd::{self, CalibrateArgs};
-use dualhair::compare_cmd::{self, CompareArgs};
-use dualhair::converge_cmd::{self, ConvergeArgs};
-use dualhair::convert_cmd::{self, ConvertArgs};
-use dualhair::fibersim_cmd::{self, FibersimArgs};
-use dualhair::interrupt::{EXIT_STATUS, Interrupted};
-use dualhair::lobe_cmd::{self, LobeArgs};
-use dualhair::merge_cmd::{self, MergeArgs};
-use dualhair::precompute_cmd::{self, PrecomputeCommand};
-use dualhair::render_cmd::{self, RenderArgs};
-use dualhair::resolve_cmd::{self, ResolveArgs};
-use dualhair::stability_cmd::{self, StabilityArgs};
+use cli::calibrate::{self as calibrate_cmd, CalibrateArgs};
+use cli::compare::{self as compare_cmd, CompareArgs};
+use cli::converge::{self as converge_cmd, ConvergeArgs};
+use cli::convert::{self as convert_cmd, ConvertArgs};
+use cli::fibersim::{self as fibersim_cmd, FibersimArgs};
+use cli::lobe::{self as lobe_cmd, LobeArgs};
+use cli::merge::{self as merge_cmd, MergeArgs};
+use cli::precompute::{self as precompute_cmd, PrecomputeCommand};
+use cli::render::{self as render_cmd, RenderArgs};
+use cli::resolve::{self as resolve_cmd, ResolveArgs};
+use cli::stability::{self as stability_cmd, StabilityArgs};
+use dualhair::render::interrupt::{EXIT_STATUS, Interrupted};
 
 /// dualhair: a hair renderer that makes multiple scattering cheap (dual scattering with a
 /// voxel hair-density grid, d'Eon importance sampling, and a path-traced reference).

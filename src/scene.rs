@@ -3,18 +3,19 @@
 //! Unknown fields are errors; bad values are errors that name the field.
 
 use crate::camera::Camera;
-use crate::dual::{DualModel, Transmittance};
-use crate::fibers::{BUILD_BYTES_PER_SEGMENT, Fibers};
 use crate::film::Film;
-use crate::light::{EnvMap, Environment, Lights, Sun};
+use crate::geometry::meshes::{Mesh, Meshes, read_obj};
+use crate::geometry::strands::{BUILD_BYTES_PER_SEGMENT, Fibers};
+use crate::geometry::world::World;
+use crate::integrators::dual::options::{DualSpec, MAX_LIGHT_SAMPLES, ShadowMode};
+use crate::integrators::dual::{DualModel, Transmittance};
+use crate::integrators::{IntegratorKind, Sampling};
+use crate::lights::{EnvMap, Environment, Lights, Sun};
 use crate::memory;
-use crate::meshes::{Mesh, Meshes, read_obj};
 use crate::render::SUM_CEILING;
-use crate::transmittance::LookupSettings;
-use crate::world::World;
 use anyhow::{Context, Result, bail, ensure};
 use glam::{DMat4, DVec3, EulerRot};
-use precompute::fiber::{FiberParams, ModelKind, SamplerKind};
+use precompute::fiber::{FiberParams, ModelKind};
 use precompute::spectrum::Rgb;
 use precompute::strands::{Generator, HairFormat, Strands, read_strands};
 use serde::{Deserialize, Serialize};
@@ -162,137 +163,6 @@ impl OneOrRgb {
     }
 }
 
-#[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, clap::ValueEnum)]
-#[serde(rename_all = "snake_case")]
-pub enum IntegratorKind {
-    /// Direct lighting only.
-    Single,
-    /// Full multiple scattering between fibers (the reference).
-    Path,
-    /// Dual-scattering approximation of multiple scattering (Zinke et al. 2008).
-    Dual,
-    /// `single` where the fiber's tables predict little multiple scattering (dark hair), else
-    /// `dual`; the render says which and why.
-    Auto,
-}
-
-#[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, clap::ValueEnum)]
-#[serde(rename_all = "snake_case")]
-pub enum Sampling {
-    /// d'Eon et al. 2013 fiber importance sampling (for dual, a mixture covering all its terms).
-    Importance,
-    /// Uniform sphere sampling (the baseline).
-    Uniform,
-    /// Light sampling alone (`dual` only).
-    Light,
-    /// The fiber's sampler with the density its source states in place of the density it has
-    /// (Marschner only: the thesis's, seed 003 section 4.3). Biased; there to measure that.
-    Thesis,
-    /// Hery and Ramamoorthi 2011's Box-Muller sampler as seed 000 describes it (Sadeghi only).
-    /// Biased at grazing angles; there to measure that.
-    #[value(name = "box_muller")]
-    BoxMuller,
-    /// d'Eon et al. 2014's iterative sampler as its Appendix A prints it (d'Eon 2014 only), with
-    /// the model's density: slightly biased at grazing angles; there to measure that.
-    Iterative,
-}
-
-impl Sampling {
-    /// An error unless `model` has this sampler: `thesis`, `box_muller` and `iterative` are one
-    /// model's flawed samplers each.
-    pub fn check_model(self, model: ModelKind) -> std::result::Result<(), String> {
-        let (owner, name) = match self {
-            Sampling::Thesis => (ModelKind::Marschner, "the Marschner model's (fiber.model \"marschner\")"),
-            Sampling::BoxMuller => (ModelKind::Sadeghi, "the Sadeghi model's (fiber.model \"sadeghi\")"),
-            Sampling::Iterative => (ModelKind::Deon2014, "the d'Eon 2014 model's (fiber.model \"deon2014\")"),
-            Sampling::Importance | Sampling::Uniform | Sampling::Light => return Ok(()),
-        };
-        let value = clap::ValueEnum::to_possible_value(&self).map(|v| v.get_name().to_string()).unwrap_or_default();
-        if model == owner { Ok(()) } else { Err(format!("`{value}` is {name}, not this fiber's")) }
-    }
-
-    /// The fiber sampler this sampling draws directions with.
-    pub fn fiber_sampler(self) -> SamplerKind {
-        match self {
-            Sampling::Thesis => SamplerKind::Thesis,
-            Sampling::BoxMuller => SamplerKind::BoxMuller,
-            Sampling::Iterative => SamplerKind::Iterative,
-            Sampling::Importance | Sampling::Uniform | Sampling::Light => SamplerKind::Exact,
-        }
-    }
-}
-
-/// The dual-scattering integrator's parameters (Zinke et al. 2008; design section 4).
-#[derive(Serialize, Deserialize, Debug, Clone)]
-#[serde(default, deny_unknown_fields)]
-pub struct DualSpec {
-    /// Forward scattering density factor d_f in [0, 1].
-    pub d_f: f64,
-    /// Backscattering density factor d_b in [0, 1].
-    pub d_b: f64,
-    /// How the light that reaches a fiber through other fibers is modelled.
-    pub model: DualModel,
-    /// Voxel size of the density grid in scene units (default: chosen from the hair).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub voxel_size: Option<f64>,
-    /// A density grid made elsewhere: an OpenVDB file with a float grid `density` of hair length
-    /// per unit volume and `fiber_width` metadata, in the hair's final (world) frame. Default:
-    /// voxelize the hair.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub density_grid: Option<PathBuf>,
-    /// Shadow rays (default) or the precomputed forward-transmittance lookup.
-    pub shadows: ShadowMode,
-    /// The lookup's resolutions.
-    pub lookup: LookupSettings,
-    /// Direction samples per camera hit, each a light sample and a sample of F's own sampler,
-    /// stratified together: one camera ray and the fiber's per-hit state serve them all
-    /// (default: [`DualSpec::light_samples`]).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub light_samples: Option<u32>,
-}
-
-/// The most light samples per camera hit `dual` takes (`dual.light_samples`, converge's
-/// `dual-...-K`).
-pub const MAX_LIGHT_SAMPLES: u32 = 256;
-
-impl DualSpec {
-    /// Light samples per camera hit: the scene's, else 4 under an environment map and 1 under a
-    /// sun or a constant sky. Under a map most of a `dual` sample's noise is where its light
-    /// direction falls, which more directions per camera ray average away for less than more
-    /// camera rays cost; under a sun's small disc the noise is mostly which fibers the camera ray
-    /// hits, and more light samples only cost time (README, "Light samples per camera hit").
-    pub fn light_samples(&self, lights: &Lights) -> u32 {
-        self.light_samples.unwrap_or(if lights.has_map() { 4 } else { 1 })
-    }
-}
-
-/// How `dual` finds what lies between a shading point and a light (see [`crate::dual::Shadows`]).
-#[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-#[serde(rename_all = "snake_case")]
-pub enum ShadowMode {
-    /// Shadow rays through the real strands and grid marches: crisp hair-on-hair shadows, and
-    /// the closest to `path` on the accuracy table (the default).
-    Rays,
-    /// The forward-transmittance lookup: deep opacity maps toward the lights, built once per
-    /// hair and light (seconds), soft shadows at a few fiber widths.
-    Lookup,
-}
-
-impl Default for DualSpec {
-    fn default() -> Self {
-        DualSpec {
-            d_f: 1.0,
-            d_b: 1.0,
-            model: DualModel::TwoStream,
-            voxel_size: None,
-            density_grid: None,
-            shadows: ShadowMode::Rays,
-            lookup: LookupSettings::default(),
-            light_samples: None,
-        }
-    }
-}
-
 #[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(default, deny_unknown_fields)]
 pub struct RenderSpec {
@@ -387,7 +257,53 @@ impl Scene {
     }
 }
 
+/// Values that replace a scene file's (the command line's flags); `None` keeps the file's.
+#[derive(Clone, Debug, Default)]
+pub struct Overrides {
+    pub spp: Option<u32>,
+    pub integrator: Option<IntegratorKind>,
+    pub sampling: Option<Sampling>,
+    pub seed: Option<u64>,
+    pub max_depth: Option<u32>,
+    pub d_f: Option<f64>,
+    pub d_b: Option<f64>,
+    pub model: Option<ModelKind>,
+    pub dual_model: Option<DualModel>,
+    pub shadows: Option<ShadowMode>,
+    pub light_samples: Option<u32>,
+    pub width: Option<usize>,
+    pub height: Option<usize>,
+}
+
 impl SceneFile {
+    /// The scene file at `path` (default: `scenes/default.json`, which must then exist here)
+    /// with `overrides` applied.
+    pub fn load_with(path: Option<&Path>, overrides: &Overrides) -> Result<SceneFile> {
+        let default = Path::new("scenes/default.json");
+        if path.is_none() && !default.exists() {
+            bail!(
+                "no scene given and {} does not exist here (run from the repository root or name a scene)",
+                default.display()
+            );
+        }
+        let (mut file, o) = (SceneFile::load(path.unwrap_or(default))?, overrides);
+        let r = &mut file.render;
+        r.spp = o.spp.unwrap_or(r.spp);
+        r.integrator = o.integrator.unwrap_or(r.integrator);
+        r.sampling = o.sampling.or(r.sampling);
+        r.seed = o.seed.unwrap_or(r.seed);
+        r.max_depth = o.max_depth.unwrap_or(r.max_depth);
+        file.dual.d_f = o.d_f.unwrap_or(file.dual.d_f);
+        file.dual.d_b = o.d_b.unwrap_or(file.dual.d_b);
+        file.fiber.model = o.model.unwrap_or(file.fiber.model);
+        file.dual.model = o.dual_model.unwrap_or(file.dual.model);
+        file.dual.shadows = o.shadows.unwrap_or(file.dual.shadows);
+        file.dual.light_samples = o.light_samples.or(file.dual.light_samples);
+        file.camera.width = o.width.unwrap_or(file.camera.width);
+        file.camera.height = o.height.unwrap_or(file.camera.height);
+        Ok(file)
+    }
+
     /// Reads a scene file; a hair file (`.hair`, `.hair.gz`, `.pbrt`, `.pbrt.gz`) stands for a scene with that hair and every default.
     pub fn load(path: &Path) -> Result<SceneFile> {
         if HairFormat::of(path).is_some() {

@@ -3,9 +3,7 @@
 //! of tools/blender_to_hair.py as a .hair file whose strands are its curves in world space, and
 //! out of Blender's own USD exporter as BasisCurves that read as the same strands.
 
-mod common;
-
-use common::bpy_python;
+use crate::common::bpy_python;
 use glam::Vec3;
 use precompute::strands::{read_hair, read_strands};
 
@@ -107,7 +105,8 @@ fn blenders_usd_export_reads_as_its_hair_export_and_renders_the_same() {
     let render = |file: &str| {
         let out = d.join(format!("{file}.exr"));
         let args = ["render", "--width", "24", "--height", "24", "--spp", "4", "-q", "-o"];
-        let run = common::dualhair(&[&args[..], &[out.to_str().unwrap(), d.join(file).to_str().unwrap()]].concat());
+        let run =
+            crate::common::dualhair(&[&args[..], &[out.to_str().unwrap(), d.join(file).to_str().unwrap()]].concat());
         assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
         std::fs::read(out).unwrap()
     };

@@ -1,14 +1,14 @@
 //! `calibrate` recovers known density factors and lowers the error against a path-traced
 //! reference; `auto` picks single scattering for black hair and dual scattering for blond.
 
-use dualhair::calibrate_cmd::calibrate;
-use dualhair::dual::DualModel;
-use dualhair::render_cmd::resolve_auto;
-use dualhair::scene::{IntegratorKind, SceneFile};
+use dualhair::analysis::calibrate::calibrate;
+use dualhair::integrators::IntegratorKind;
+use dualhair::integrators::dual::DualModel;
+use dualhair::job::resolve_auto;
+use dualhair::progress::Silent;
+use dualhair::scene::SceneFile;
 
-mod common;
-
-use common::{ROOT, bundled, cache, render};
+use crate::common::{ROOT, bundled, cache, render};
 
 #[test]
 fn calibrate_recovers_the_factors_of_a_synthetic_target() {
@@ -18,7 +18,7 @@ fn calibrate_recovers_the_factors_of_a_synthetic_target() {
     let mut target = file.clone();
     (target.dual.d_f, target.dual.d_b) = (0.4, 0.8);
     let target = render(&target);
-    let c = calibrate(&file, Some(target), 0, &cache(), false).unwrap();
+    let c = calibrate(&file, Some(target), 0, &cache(), &Silent).unwrap();
     println!("{c:?}");
     assert!((c.d_f - 0.4).abs() < 0.02, "d_f {}", c.d_f);
     assert!((c.d_b - 0.8).abs() < 0.05, "d_b {}", c.d_b);
@@ -32,7 +32,7 @@ fn calibrate_lowers_the_error_against_path_tracing() {
     let mut file = bundled("blond", 24, 64);
     file.dual.model = DualModel::Zinke2008;
     (file.dual.d_f, file.dual.d_b) = (0.7, 0.7);
-    let c = calibrate(&file, None, 512, &cache(), false).unwrap();
+    let c = calibrate(&file, None, 512, &cache(), &Silent).unwrap();
     println!("{c:?}");
     assert!(c.after.1 < c.before.1, "{c:?}");
     assert!((0.0..=1.0).contains(&c.d_f) && (0.0..=1.0).contains(&c.d_b));
@@ -44,7 +44,7 @@ fn auto_renders_black_hair_with_single_and_blond_with_dual() {
         let mut file = bundled(name, 8, 1);
         file.render.integrator = IntegratorKind::Auto;
         let mut scene = file.build().unwrap();
-        let why = resolve_auto(&mut scene, &cache(), false).unwrap().unwrap();
+        let why = resolve_auto(&mut scene, &cache(), &Silent).unwrap().unwrap();
         println!("{name}: {why}");
         assert_eq!(scene.render.integrator, kind, "{name}: {why}");
     }

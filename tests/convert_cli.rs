@@ -1,9 +1,7 @@
 //! `dualhair convert` end to end: pbrt-v4 curves to .hair and .hair.gz with a transform, back to
 //! the same strands; a pbrt file rendered as a scene; bad arguments named, nothing written.
 
-mod common;
-
-use common::{assert_each_fails_naming, dualhair};
+use crate::common::{assert_each_fails_naming, dualhair};
 use glam::Vec3;
 use precompute::strands::{read_hair, read_pbrt_curves};
 

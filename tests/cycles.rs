@@ -3,13 +3,11 @@
 //! `.venv-cycles/bin/python` in the repository: README, "Checking against Blender Cycles");
 //! otherwise each test says it is skipped and passes. CI does not install Blender.
 
-use dualhair::compare::{hair_pixels, mean_luminance, relative_rmse};
+use dualhair::analysis::compare::{hair_pixels, mean_luminance, relative_rmse};
 use dualhair::film::Film;
 use std::process::Command;
 
-mod common;
-
-use common::{ROOT, bpy_python};
+use crate::common::{ROOT, bpy_python};
 
 /// Renders `json` (a scene) with dualhair's path tracer and with Cycles, at the same spp and
 /// seed; returns (dualhair, Cycles), or None when bpy is missing.

@@ -2,17 +2,17 @@
 //! converge to the same image, every bundled scene renders finite, and its precomputed inputs are
 //! cached and reused.
 
-use dualhair::cache::Cache;
-use dualhair::compare::hair_pixels;
-use dualhair::dual::DualModel;
+use dualhair::analysis::compare::hair_pixels;
 use dualhair::film::Film;
-use dualhair::scene::{DualSpec, IntegratorKind, Sampling, ShadowMode};
-use dualhair::transmittance::LookupSettings;
+use dualhair::integrators::dual::DualModel;
+use dualhair::integrators::dual::cache::Cache;
+use dualhair::integrators::dual::options::{DualSpec, ShadowMode};
+use dualhair::integrators::dual::transmittance::LookupSettings;
+use dualhair::integrators::{IntegratorKind, Sampling};
+use dualhair::progress::Silent;
 use precompute::fiber::FiberParams;
 
-mod common;
-
-use common::{ROOT, bundled, render};
+use crate::common::{ROOT, bundled, render};
 
 #[test]
 fn without_multiple_scattering_dual_is_single() {
@@ -129,7 +129,7 @@ fn precomputed_inputs_are_cached_and_reused() {
     let cache = Cache::at(dir.path());
     // A rough fiber keeps the tables quick.
     let fiber: FiberParams = serde_json::from_str(r#"{"beta_m": 0.6, "beta_n": 0.7}"#).unwrap();
-    let first = cache.tables(&fiber, 0.7, false).unwrap();
+    let first = cache.tables(&fiber, 0.7, &Silent).unwrap();
     let files = || {
         // The entries, not the lock files beside them.
         let mut v: Vec<_> = std::fs::read_dir(dir.path())
@@ -145,26 +145,26 @@ fn precomputed_inputs_are_cached_and_reused() {
     };
     let after_first = files();
     assert_eq!(after_first.len(), 1);
-    let again = cache.tables(&fiber, 0.7, false).unwrap();
+    let again = cache.tables(&fiber, 0.7, &Silent).unwrap();
     assert_eq!(files(), after_first, "unchanged inputs must reuse the cached tables");
     assert_eq!(again.theta, first.theta);
     assert_eq!(again.to_json(), first.to_json(), "a reused table must equal the computed one");
     // Other inputs make another entry.
-    cache.tables(&fiber, 0.5, false).unwrap();
+    cache.tables(&fiber, 0.5, &Silent).unwrap();
     assert_eq!(files().len(), 2);
     // A damaged entry is recomputed, not trusted.
     let path = dir.path().join(&after_first[0].0);
     std::fs::write(&path, b"{\"theta\": [0, 1], \"a_f\": ").unwrap();
-    let repaired = cache.tables(&fiber, 0.7, false).unwrap();
+    let repaired = cache.tables(&fiber, 0.7, &Silent).unwrap();
     assert_eq!(repaired.to_json(), first.to_json());
 
     // The density grid: reused for the same strands and voxel size, rebuilt for others.
     let strands = bundled("brown", 8, 1).hair().unwrap();
-    let grid = cache.density(&strands, None, false).unwrap();
+    let grid = cache.density(&strands, None, &Silent).unwrap();
     let n = files().len();
-    assert_eq!(cache.density(&strands, None, false).unwrap(), grid);
+    assert_eq!(cache.density(&strands, None, &Silent).unwrap(), grid);
     assert_eq!(files().len(), n);
-    let finer = cache.density(&strands, Some(0.5 * grid.voxel_size), false).unwrap();
+    let finer = cache.density(&strands, Some(0.5 * grid.voxel_size), &Silent).unwrap();
     assert_eq!(files().len(), n + 1);
     assert!(((finer.total_length() - grid.total_length()) / grid.total_length()).abs() < 1e-3);
 
@@ -175,7 +175,7 @@ fn precomputed_inputs_are_cached_and_reused() {
     file.lights.sun = Some(serde_json::from_str(r#"{"direction": [0.3, -1, 0.5], "irradiance": 2}"#).unwrap());
     file.dual.lookup = LookupSettings { env_grid: 2, env_texel: 8.0, sun_texel: 4.0 };
     let scene = file.build().unwrap();
-    let lookup = |scene: &dualhair::scene::Scene| cache.lookup(scene, false).unwrap();
+    let lookup = |s: &dualhair::scene::Scene| cache.lookup(&s.strands, &s.lights, &s.dual.lookup, &Silent).unwrap();
     let first = lookup(&scene);
     let n = files().len();
     assert_eq!(lookup(&scene), first);

@@ -1,7 +1,7 @@
 //! Ray-fiber intersection against an independent reference (sphere tracing of the capsules'
 //! signed distance field), and the hit-distance regime where CwBvh's built-in cut-off would bite.
 
-use dualhair::fibers::Fibers;
+use dualhair::geometry::strands::Fibers;
 use glam::{DVec3, Vec3};
 use precompute::strands::Strands;
 use rand::{Rng, SeedableRng};

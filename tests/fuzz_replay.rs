@@ -4,7 +4,7 @@
 //! and allocate no more at once than the fuzzer allowed. Fuzzing itself needs nightly and
 //! cargo-fuzz (fuzz/README.md); this runs on stable.
 
-#[path = "../precompute/tests/common/mod.rs"]
+#[path = "../precompute/tests/common/alloc.rs"]
 mod allocation;
 #[path = "../fuzz/src/lib.rs"]
 mod entries;

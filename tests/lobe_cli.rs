@@ -1,9 +1,7 @@
 //! End-to-end checks of `dualhair lobe`: the written EXR integrates to the albedo, the PNG is a
 //! picture, and bad input fails with a message and no file.
 
-mod common;
-
-use common::{assert_each_fails_naming, assert_picture, dualhair};
+use crate::common::{assert_each_fails_naming, assert_picture, dualhair};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 #[test]

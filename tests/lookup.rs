@@ -1,17 +1,16 @@
 //! The forward-transmittance lookup against what it replaces: shadow rays from the shading points
 //! `dual` uses, the real count of fibers they cross and the density grid's march, at camera hits.
 
+use dualhair::integrators::dual::transmittance::{ForwardLookup, LookupSettings};
+use dualhair::progress::Silent;
 use dualhair::scene::SceneFile;
-use dualhair::transmittance::{ForwardLookup, LookupSettings};
 use glam::DVec3;
 use precompute::conventions::{h_offset, uniform_sphere};
 use precompute::fiber::{Chiang, FiberHit, FiberModel};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
-mod common;
-
-use common::{bundled, cache};
+use crate::common::{bundled, cache};
 
 /// What is compared, each as (lookup, exact) means over camera hits.
 const NAMES: [&str; 10] = [
@@ -36,9 +35,9 @@ const NAMES: [&str; 10] = [
 /// the hair alone (`dual` traces rays against the meshes with both).
 fn compare(file: &SceneFile, settings: LookupSettings, k: usize) -> [(f64, f64); 10] {
     let scene = file.build().unwrap();
-    let grid = cache().density(&scene.strands, None, false).unwrap();
+    let grid = cache().density(&scene.strands, None, &Silent).unwrap();
     let sun = scene.lights.sun.as_ref().unwrap();
-    let lookup = ForwardLookup::build(&scene.strands, &scene.lights, &settings, false);
+    let lookup = ForwardLookup::build(&scene.strands, &scene.lights, &settings, &Silent);
     let chiang = Chiang::new(&scene.fiber).unwrap();
     let mut rng = Pcg64Mcg::seed_from_u64(3);
     let mut sums = [[0.0; 2]; 10];

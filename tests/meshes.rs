@@ -2,15 +2,16 @@
 //! in which a mesh is shadowed by hair and shadows it, in `single`, `dual` and `path`, and a white
 //! furnace with a white mesh in `path`.
 
-mod common;
-
-use common::{cache, dualhair};
-use dualhair::compare::hair_pixels;
-use dualhair::dual::{DualModel, crossing_mean, forward_cosine};
+use crate::common::{cache, dualhair};
+use dualhair::analysis::compare::hair_pixels;
 use dualhair::film::Film;
-use dualhair::meshes::{Mesh, Meshes, read_obj};
-use dualhair::render_cmd::render_scene;
-use dualhair::scene::{IntegratorKind, SceneFile, ShadowMode};
+use dualhair::geometry::meshes::{Mesh, Meshes, read_obj};
+use dualhair::integrators::IntegratorKind;
+use dualhair::integrators::dual::options::ShadowMode;
+use dualhair::integrators::dual::{DualModel, crossing_mean, forward_cosine};
+use dualhair::job::render_scene;
+use dualhair::progress::Silent;
+use dualhair::scene::SceneFile;
 use glam::{DVec3, Vec3};
 use precompute::fiber::Fiber;
 use precompute::spectrum::Rgb;
@@ -195,7 +196,7 @@ fn hair_shadows_a_diffuse_quad_behind_it() {
     for (integrator, shadows) in INTEGRATORS {
         let mut file = swatch_scene(dir.path(), [-1.0, -1.0, 0.0], meshes, integrator, 16);
         file.dual.shadows = shadows;
-        let film = render_scene(&file.build().unwrap(), &cache(), false).unwrap();
+        let film = render_scene(&file.build().unwrap(), &cache(), &Silent).unwrap();
         let shadowed = region_mean(&file, &film, 0.6, false, |x, z| (0.5..0.9).contains(&x) && z.abs() < 0.35);
         let lit = region_mean(&file, &film, 0.6, false, |x, z| (-0.9..-0.5).contains(&x) && z.abs() < 0.35);
         let hair = region_mean(&file, &film, 0.0, true, |x, z| x.abs() < 0.3 && z.abs() < 0.4);
@@ -234,12 +235,12 @@ fn light_through_thin_hair_reaches_the_wall() {
         file.fiber = serde_json::from_str(r#"{"absorption": {"melanin": {"eumelanin": 0.3}}}"#).unwrap();
         file.dual.shadows = mode;
         let scene = file.build().unwrap();
-        let film = render_scene(&scene, &cache(), false).unwrap();
+        let film = render_scene(&scene, &cache(), &Silent).unwrap();
         let shadowed = region_mean(&file, &film, 0.6, false, |x, z| (0.5..0.9).contains(&x) && z.abs() < 0.35);
         println!("{integrator:?} ({mode:?}): wall in the hair's shadow {shadowed:.4}");
         shadows.push(shadowed);
         if integrator == IntegratorKind::Dual && mode == ShadowMode::Lookup {
-            let tables = cache().tables(&scene.fiber, scene.dual.d_b, false).unwrap();
+            let tables = cache().tables(&scene.fiber, scene.dual.d_b, &Silent).unwrap();
             let row = crossing_mean(&tables);
             let g = forward_cosine(&Fiber::exact(&scene.fiber).unwrap());
             let t_f =
@@ -266,7 +267,7 @@ fn a_mesh_between_the_sun_and_the_hair_darkens_it() {
         for meshes in ["[]", r#"[{"file": "roof.obj"}]"#] {
             let mut file = swatch_scene(dir.path(), [0.0, -1.0, 1.0], meshes, integrator, 16);
             file.dual.shadows = shadows;
-            let film = render_scene(&file.build().unwrap(), &cache(), false).unwrap();
+            let film = render_scene(&file.build().unwrap(), &cache(), &Silent).unwrap();
             let left = region_mean(&file, &film, 0.0, true, |x, z| (-0.35..-0.1).contains(&x) && z.abs() < 0.4);
             let right = region_mean(&file, &film, 0.0, true, |x, z| (0.1..0.35).contains(&x) && z.abs() < 0.4);
             side.push((left, right));
@@ -303,7 +304,7 @@ fn a_white_furnace_with_a_white_mesh_is_white() {
   "meshes": [{"file": "white.obj", "color": [1, 1, 1]}]
 }"#;
     let file = SceneFile::load(Path::new(&write(dir.path(), "furnace.json", json))).unwrap();
-    let film = render_scene(&file.build().unwrap(), &cache(), false).unwrap();
+    let film = render_scene(&file.build().unwrap(), &cache(), &Silent).unwrap();
     let mean = |hair: bool| {
         let px: Vec<_> = (0..film.alpha.len()).filter(|&i| (film.alpha[i] >= 1.0) == hair).collect();
         let n = px.len() as f64;
@@ -341,7 +342,7 @@ fn a_white_wall_behind_the_hair_sends_back_the_sky_it_hides() {
             file.lights = serde_json::from_str(r#"{"environment": {"color": [1, 1, 1]}}"#).unwrap();
             file.fiber = serde_json::from_str(r#"{"absorption": {"melanin": {"eumelanin": 0.3}}}"#).unwrap();
             file.dual.shadows = shadows;
-            let film = render_scene(&file.build().unwrap(), &cache(), false).unwrap();
+            let film = render_scene(&file.build().unwrap(), &cache(), &Silent).unwrap();
             let hair = hair_pixels(&film);
             hair.iter().map(|&i| film.mean[i].luminance()).sum::<f64>() / hair.len() as f64
         });
@@ -363,7 +364,7 @@ fn single_is_path_at_depth_one_with_a_mesh() {
     let single = swatch_scene(dir.path(), [-1.0, -1.0, 0.3], meshes, IntegratorKind::Single, 4);
     let mut path = swatch_scene(dir.path(), [-1.0, -1.0, 0.3], meshes, IntegratorKind::Path, 4);
     path.render.max_depth = 1;
-    let [a, b] = [single, path].map(|f| render_scene(&f.build().unwrap(), &cache(), false).unwrap());
+    let [a, b] = [single, path].map(|f| render_scene(&f.build().unwrap(), &cache(), &Silent).unwrap());
     assert!(a.mean == b.mean && a.alpha == b.alpha, "single and path at depth 1 differ");
     assert!(a.mean.iter().any(|p| p.0[2] > 2.0 * p.0[0]), "the blue wall is not in the picture");
 }
@@ -376,14 +377,14 @@ fn single_is_path_at_depth_one_with_a_mesh() {
 #[ignore]
 fn skin_near_hair_in_the_default_scene() {
     let size = 160;
-    let mut file = SceneFile::load(Path::new(&format!("{}/scenes/default.json", common::ROOT))).unwrap();
+    let mut file = SceneFile::load(Path::new(&format!("{}/scenes/default.json", crate::common::ROOT))).unwrap();
     (file.camera.width, file.camera.height) = (size, size);
     let render_with = |integrator, mode, spp| {
         let mut f = file.clone();
         f.render.integrator = integrator;
         f.render.spp = spp;
         f.dual.shadows = mode;
-        render_scene(&f.build().unwrap(), &cache(), false).unwrap()
+        render_scene(&f.build().unwrap(), &cache(), &Silent).unwrap()
     };
     let path = render_with(IntegratorKind::Path, ShadowMode::Rays, 1024);
     let scene = file.build().unwrap();
@@ -394,7 +395,7 @@ fn skin_near_hair_in_the_default_scene() {
             let (o, d) = scene.camera.ray(x as f64 + 0.5, y as f64 + 0.5);
             let on_head = matches!(
                 scene.world().closest_hit(o, d.as_vec3(), f32::INFINITY),
-                Some(dualhair::world::Surface::Mesh(_))
+                Some(dualhair::geometry::world::Surface::Mesh(_))
             );
             let near = (y.saturating_sub(8)..(y + 9).min(size))
                 .any(|v| (x.saturating_sub(8)..(x + 9).min(size)).any(|u| hair[v * size + u]));
@@ -405,9 +406,10 @@ fn skin_near_hair_in_the_default_scene() {
     println!("{} skin pixels within 8 pixels of hair; path {:.5}", skin.len(), mean(&path));
     for (name, mode) in [("dual (lookup)", ShadowMode::Lookup), ("dual (rays)", ShadowMode::Rays)] {
         let dual = render_with(IntegratorKind::Dual, mode, 256);
-        let hair = dualhair::compare::hair_pixels(&path);
-        let ratio = dualhair::compare::mean_luminance(&dual, &hair) / dualhair::compare::mean_luminance(&path, &hair);
-        let (e, noise) = dualhair::compare::block_relative_rmse(&dual, &path, 4).unwrap();
+        let hair = dualhair::analysis::compare::hair_pixels(&path);
+        let ratio = dualhair::analysis::compare::mean_luminance(&dual, &hair)
+            / dualhair::analysis::compare::mean_luminance(&path, &hair);
+        let (e, noise) = dualhair::analysis::compare::block_relative_rmse(&dual, &path, 4).unwrap();
         println!(
             "{name}: skin {:.5}, dual / path {:.4}; hair: dual / path {ratio:.4}, block error {:.1}% (noise {:.1}%)",
             mean(&dual),

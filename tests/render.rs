@@ -1,12 +1,14 @@
 //! Renderer-level checks: energy conservation (furnace), single = path at depth 1, importance and
 //! uniform fiber sampling converging to the same image, thread-count independence, bad scenes.
 
-use dualhair::cache::Cache;
-use dualhair::compare::hair_pixels;
+use dualhair::analysis::compare::hair_pixels;
 use dualhair::film::Film;
-use dualhair::integrator::Term;
-use dualhair::render_cmd::render_scene;
-use dualhair::scene::{EnvSpec, IntegratorKind, LightsSpec, Sampling, SceneFile};
+use dualhair::integrators::Term;
+use dualhair::integrators::dual::cache::Cache;
+use dualhair::integrators::{IntegratorKind, Sampling};
+use dualhair::job::render_scene;
+use dualhair::progress::Silent;
+use dualhair::scene::{EnvSpec, LightsSpec, SceneFile};
 use precompute::spectrum::Rgb;
 use std::path::Path;
 use std::process::Command;
@@ -26,7 +28,7 @@ fn cache_dir() -> String {
 }
 
 fn render(file: &SceneFile) -> Film {
-    render_scene(&file.build().unwrap(), &Cache::at(cache_dir()), false).unwrap()
+    render_scene(&file.build().unwrap(), &Cache::at(cache_dir()), &Silent).unwrap()
 }
 
 /// Mean luminance over pixels that hair fully covers, and its standard error.

@@ -2,11 +2,9 @@
 //! finished passes, `--resume` and `merge` give the same bytes as one uninterrupted render, and
 //! the parts of a `converge` run merge into the same measures.
 
-mod common;
-
-use common::ROOT;
+use crate::common::ROOT;
+use dualhair::film::partial;
 use dualhair::film::{Film, read_exr_layer};
-use dualhair::partial;
 use exr::prelude::{AttributeValue, Text};
 use std::io::{BufRead, BufReader};
 use std::path::Path;

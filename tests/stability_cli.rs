@@ -2,9 +2,7 @@
 //! method is measured, the known failure (Box-Muller's density at grazing light, seed 000
 //! Appendix B) shows where the exact sampler of the same model does not, and bad input fails.
 
-mod common;
-
-use common::dualhair;
+use crate::common::dualhair;
 
 #[test]
 fn quick_run_writes_every_output_and_shows_box_mullers_failure() {

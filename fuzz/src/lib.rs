@@ -5,8 +5,8 @@
 //! `tests/fuzz_replay.rs` includes this file to replay the corpora and regressions on stable, so
 //! the fuzzer and the test run the same code.
 
-use dualhair::light::EnvMap;
-use dualhair::meshes::parse_obj;
+use dualhair::geometry::meshes::parse_obj;
+use dualhair::lights::EnvMap;
 use dualhair::scene::SceneFile;
 use precompute::density::parse_vdb;
 use precompute::strands::{Generator, parse_hair, parse_pbrt_curves, parse_usd_curves};

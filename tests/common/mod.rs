@@ -2,11 +2,12 @@
 // Each test binary uses some of them.
 #![allow(dead_code)]
 
-use dualhair::cache::Cache;
-use dualhair::fibers::Fibers;
 use dualhair::film::Film;
-use dualhair::integrator::{CameraSample, Integrator};
-use dualhair::render_cmd::render_scene;
+use dualhair::geometry::strands::Fibers;
+use dualhair::integrators::dual::cache::Cache;
+use dualhair::integrators::{CameraSample, Integrator};
+use dualhair::job::render_scene;
+use dualhair::progress::Silent;
 use dualhair::sampler::Sampler;
 use dualhair::scene::SceneFile;
 use glam::{DVec3, Vec3};
@@ -32,7 +33,7 @@ pub fn bundled(name: &str, size: usize, spp: u32) -> SceneFile {
 
 /// Renders a scene file with its own settings.
 pub fn render(file: &SceneFile) -> Film {
-    render_scene(&file.build().unwrap(), &cache(), false).unwrap()
+    render_scene(&file.build().unwrap(), &cache(), &Silent).unwrap()
 }
 
 /// The Python that can import bpy and numpy (tools/cycles_reference.py needs both), if any:

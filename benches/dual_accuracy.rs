@@ -1,4 +1,4 @@
-//! Accuracy of `dual` against the path-traced reference, term by term (issue 11).
+//! Accuracy of `dual` against the path-traced reference, term by term.
 //!
 //! `cargo bench --bench dual_accuracy [-- FILTER]`: for blond, brown and black curly swatches (and
 //! real grooms named in DUALHAIR_ACC_GROOMS), each under its HDRI, a front sun and a back sun,

@@ -1,9 +1,9 @@
-//! Film-scale groom benchmark (issue 15): time and memory of every stage of a render of a
+//! Film-scale groom benchmark: time and memory of every stage of a render of a
 //! production-sized groom, and its samples/s.
 //!
 //! `cargo bench --bench film_scale [-- STRANDS POINTS]`: generates a scalp groom (default 150,000
 //! strands of 66 points: 9.9M points, 9.75M segments; fiber radius 1/1000 of the scalp's, as in the
-//! real grooms of the README), writes it as .hair to `target/film-scale/`, then, stage by stage as
+//! bundled groom and the real grooms of docs/usage.md), writes it as .hair to `target/film-scale/`, then, stage by stage as
 //! `dualhair render` runs them, loads it, builds the BVH, the density grid and the forward-
 //! transmittance lookup (brown fiber under the courtyard HDRI, 160x160 camera), and renders with
 //! `path` and `dual` (lookup), and with camera rays alone (the ceiling of `dual`). For each stage it prints the wall time, the process's resident

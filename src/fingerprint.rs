@@ -10,14 +10,13 @@ pub const CODE_ID: &str = env!("DUALHAIR_CODE_ID");
 pub struct Fnv(pub u64);
 
 impl Fnv {
-    pub fn new() -> Fnv {
-        Fnv(0xcbf2_9ce4_8422_2325)
-    }
+    /// The hash of nothing (FNV-1a's offset basis).
+    pub const START: Fnv = Fnv(0xcbf2_9ce4_8422_2325);
 
     /// A hash that starts from this build's [`CODE_ID`]: for fingerprints that another build
     /// must not match (resumable renders, `converge`'s reused renders).
     pub fn of_code() -> Fnv {
-        Fnv::new().bytes(CODE_ID.as_bytes())
+        Fnv::START.bytes(CODE_ID.as_bytes())
     }
 
     pub fn bytes(mut self, bytes: &[u8]) -> Fnv {

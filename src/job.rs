@@ -2,6 +2,7 @@
 //! dual's inputs loaded (cached), samples added into sums, and what identifies a render so that
 //! it can be resumed or split into parts and merged.
 
+use crate::error::{Error, Result, bail, invalid};
 use crate::film::Film;
 use crate::film::partial::{self, RenderId};
 use crate::fingerprint::Fnv;
@@ -13,10 +14,8 @@ use crate::integrators::dual::{
 use crate::integrators::path::PathTracer;
 use crate::integrators::{IntegratorKind, Sampling};
 use crate::progress::Progress;
-use crate::render::interrupt::Interrupted;
 use crate::render::{Sums, render};
 use crate::scene::{Scene, SceneFile};
-use anyhow::{Result, anyhow, bail};
 use precompute::fiber::{Fiber, UniformSampled};
 use std::path::Path;
 
@@ -82,12 +81,12 @@ pub fn render_scene(scene: &Scene, cache: &Cache, progress: &dyn Progress) -> Re
 }
 
 /// Renders a built scene with inputs already loaded (see [`DualInputs::load`]): rendering alone,
-/// what comparisons time. An interrupt is an [`Interrupted`] error.
+/// what comparisons time. An interrupt is an [`Error::Interrupted`].
 pub fn render_prepared(scene: &Scene, dual: Option<&DualInputs>, progress: &dyn Progress) -> Result<Film> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let mut sums = Sums::empty(w, h, 0, scene.render.terms);
     if !render_into(scene, dual, &mut sums, scene.render.spp, progress)? {
-        return Err(Interrupted("interrupted: the render was dropped".into()).into());
+        return Err(Error::Interrupted("interrupted: the render was dropped".into()));
     }
     Ok(Film::from_sums(&sums))
 }
@@ -180,7 +179,7 @@ pub fn resume_from(
         );
     };
     let s = &partial.sums;
-    let what = |d: String| anyhow!("{}: cannot resume: {d}", exr.display());
+    let what = |d: String| invalid!("{}: cannot resume: {d}", exr.display());
     if partial.id.fingerprint != id.fingerprint || partial.id.seed != id.seed {
         return Err(what(
             "it was rendered from another scene, seed or settings, or by another build of dualhair".into(),

@@ -11,6 +11,7 @@
 
 pub mod analysis;
 pub mod camera;
+pub mod error;
 pub mod film;
 pub mod fingerprint;
 pub mod geometry;

@@ -9,8 +9,8 @@
 //! environment, each is picked with a probability from their irradiance, so a
 //! vertex costs one shadow ray instead of two.
 
+use crate::error::{Context, Result, bail, invalid};
 use crate::sampler::Sampler;
-use anyhow::{Context, Result, anyhow, bail};
 use glam::DVec3;
 use precompute::conventions::{SPHERE, uniform_sphere};
 use precompute::spectrum::Rgb;
@@ -121,8 +121,8 @@ pub struct Sun {
 /// The least share of next-event samples either light gets when there are two. A light's share
 /// of the image can exceed its share of the irradiance where the other is shadowed: `dual` under
 /// a back sun, where the dim sky lights what the sun does not, was 2-2.6x less efficient with a
-/// floor of 0.02 than with 1/4, while `path` gained 1.2-1.4x from 0.1 (README, "Speed of the
-/// path tracer").
+/// floor of 0.02 than with 1/4, while `path` gained 1.2-1.4x from 0.1
+/// (docs/performance.md, "What makes `path` fast").
 pub const MIN_SHARE: f64 = 0.1;
 
 /// All lights of a scene.
@@ -214,7 +214,7 @@ impl EnvMap {
             Some("exr") => {
                 use exr::prelude::{ReadChannels, ReadLayers};
                 // The exr crate's error already says its cause: as a context it would print twice.
-                let exr_error = |e| anyhow!("{}: cannot read as an EXR environment map: {e}", path.display());
+                let exr_error = |e| invalid!("{}: cannot read as an EXR environment map: {e}", path.display());
                 let chunks = exr::block::read(std::io::Cursor::new(bytes), false).map_err(exr_error)?;
                 for header in chunks.headers().iter().filter(|h| !h.deep) {
                     let (w, h) = (header.layer_size.x(), header.layer_size.y());
@@ -243,7 +243,7 @@ impl EnvMap {
             Some("hdr") => {
                 use image::ImageDecoder;
                 // As for EXR: the image crate's decoding errors print their cause themselves.
-                let hdr_error = |e| anyhow!("{}: cannot read as a Radiance HDR environment map: {e}", path.display());
+                let hdr_error = |e| invalid!("{}: cannot read as a Radiance HDR environment map: {e}", path.display());
                 let (w, h) = image::codecs::hdr::HdrDecoder::new(bytes).map_err(hdr_error)?.dimensions();
                 check_size(path, w as usize, h as usize, 4 * w as u128 * h as u128, bytes.len())?;
                 let img = image::load_from_memory_with_format(bytes, image::ImageFormat::Hdr)
@@ -304,7 +304,7 @@ impl EnvMap {
     /// Continuous map coordinates (u right, v down, both in [0, 1)) of a world direction.
     /// Blender's orientation (Cycles' `direction_to_equirectangular`: u = 0.5 - atan2(y, x) / 2 pi,
     /// so the center column looks toward +X); `rotation` turns the lookup direction about +Z as
-    /// Blender's Mapping node does (checked against Cycles renders: README, "Cycles").
+    /// Blender's Mapping node does (checked against Cycles renders: docs/cycles.md).
     fn uv(&self, d: DVec3) -> (f64, f64) {
         let phi = d.y.atan2(d.x) + self.rotation;
         let u = (0.5 - phi / TAU).rem_euclid(1.0);

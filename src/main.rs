@@ -12,7 +12,8 @@ use cli::precompute::{self as precompute_cmd, PrecomputeCommand};
 use cli::render::{self as render_cmd, RenderArgs};
 use cli::resolve::{self as resolve_cmd, ResolveArgs};
 use cli::stability::{self as stability_cmd, StabilityArgs};
-use dualhair::render::interrupt::{EXIT_STATUS, Interrupted};
+use dualhair::error::Error;
+use dualhair::render::interrupt::EXIT_STATUS;
 
 /// dualhair: a hair renderer that makes multiple scattering cheap (dual scattering with a
 /// voxel hair-density grid, d'Eon importance sampling, and a path-traced reference).
@@ -33,12 +34,12 @@ enum Command {
     Precompute(PrecomputeCommand),
     /// Write a lat-long image of a single fiber's scattering lobe.
     Lobe(LobeArgs),
-    /// Simulate a rough fiber's scattering by Monte Carlo (seed 001 sec. 2.1) into a lat-long image.
+    /// Simulate a rough fiber's scattering by Monte Carlo (d'Eon, Marschner and Hanika 2014, sec. 2.1) into a lat-long image.
     #[command(long_about = fibersim_cmd::LONG_ABOUT)]
     Fibersim(FibersimArgs),
     /// Compare methods: error vs. spp and vs. wall time, with tables and charts.
     Converge(ConvergeArgs),
-    /// Measure where every fiber model and sampler fails over seed 001's parameter grid.
+    /// Measure where every fiber model and sampler fails over d'Eon, Marschner and Hanika 2014's parameter grid.
     Stability(StabilityArgs),
     /// Add the parts of a split render (`render --part K/N`) into one image, or gather the folders
     /// of a split `converge` run.
@@ -72,7 +73,7 @@ fn main() -> std::process::ExitCode {
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
-        Err(e) if e.downcast_ref::<Interrupted>().is_some() => {
+        Err(e) if matches!(e.downcast_ref::<Error>(), Some(Error::Interrupted(_))) => {
             eprintln!("{e:#}");
             std::process::ExitCode::from(EXIT_STATUS)
         }

@@ -1,7 +1,7 @@
 //! What a render will hold in memory, checked before the work: a size that cannot fit is refused
 //! with the field that asked for it, not met by an allocation failure half-way.
 
-use anyhow::{Result, bail};
+use crate::error::{Result, bail};
 use precompute::density::DensityGrid;
 use precompute::strands::Strands;
 

@@ -1,6 +1,6 @@
 //! Writing result files: whole or not at all.
 
-use anyhow::{Context, Result, bail};
+use crate::error::{Context, Result, bail};
 use std::path::Path;
 
 /// Image formats the commands write, chosen by the output file's extension.
@@ -54,7 +54,9 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) ->
         std::fs::set_permissions(tmp.path(), std::fs::Permissions::from_mode(0o644))
             .with_context(|| format!("{}: cannot set the file's permissions", path.display()))?;
     }
-    tmp.persist(path).with_context(|| format!("{}: cannot move the finished file into place", path.display()))?;
+    tmp.persist(path)
+        .map_err(|e| e.error)
+        .with_context(|| format!("{}: cannot move the finished file into place", path.display()))?;
     Ok(())
 }
 

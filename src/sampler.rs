@@ -11,7 +11,7 @@
 //! independent of each other ("padding": pbrt-v4's PaddedSobolSampler). The light samples of one
 //! camera hit ([`Sampler::split`]) then cover the environment evenly instead of clumping at random
 //! (measured: 7-10% less MSE at four per hit; across a pixel's samples, where each sample hits
-//! other fibers, no gain beyond noise: README, "Speed").
+//! other fibers, no gain beyond noise: docs/performance.md).
 //!
 //! A sample's numbers depend only on (seed, pixel, sample index, request number), never on the
 //! thread that draws them, so renders stay bit-identical whatever the thread count, and sample

@@ -1,8 +1,9 @@
 //! Scene files: JSON describing the hair, the fiber, the camera, the lights and the render
-//! settings. Every section but `hair` may be left out, and every field has a default (README).
+//! settings. Every section but `hair` may be left out, and every field has a default (docs/usage.md, "Scene files").
 //! Unknown fields are errors; bad values are errors that name the field.
 
 use crate::camera::Camera;
+use crate::error::{Context, Result, bail, ensure};
 use crate::film::Film;
 use crate::geometry::meshes::{Mesh, Meshes, read_obj};
 use crate::geometry::strands::{BUILD_BYTES_PER_SEGMENT, Fibers};
@@ -13,7 +14,6 @@ use crate::integrators::{IntegratorKind, Sampling};
 use crate::lights::{EnvMap, Environment, Lights, Sun};
 use crate::memory;
 use crate::render::SUM_CEILING;
-use anyhow::{Context, Result, bail, ensure};
 use glam::{DMat4, DVec3, EulerRot};
 use precompute::fiber::{FiberParams, ModelKind};
 use precompute::spectrum::Rgb;
@@ -185,7 +185,7 @@ pub struct RenderSpec {
 impl RenderSpec {
     /// The direction sampling: the scene's, else `light` for `dual` (its F is smooth enough that
     /// light samples alone reach a given error in about 0.6 times the time of light samples MIS-
-    /// combined with fiber samples: README, "Speed") and `importance` for the others.
+    /// combined with fiber samples: docs/dual_scattering.md, "Light samples per camera hit") and `importance` for the others.
     pub fn sampling(&self) -> Sampling {
         self.sampling.unwrap_or(if self.integrator == IntegratorKind::Dual {
             Sampling::Light
@@ -385,7 +385,7 @@ impl SceneFile {
             bail!("render.sampling `light` needs the dual integrator (path tracing must sample fiber directions)");
         }
         if let Some(s) = r.sampling {
-            s.check_model(self.fiber.model).map_err(|e| anyhow::anyhow!("render.sampling {e}"))?;
+            s.check_model(self.fiber.model).map_err(|e| crate::error::invalid!("render.sampling {e}"))?;
         }
         let d = &self.dual;
         for (name, v) in [("dual.d_f", d.d_f), ("dual.d_b", d.d_b)] {

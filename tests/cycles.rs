@@ -1,6 +1,6 @@
 //! Blender Cycles as an independent reference for the path tracer (tools/cycles_reference.py).
 //! Runs when a Python with the `bpy` package is found (`DUALHAIR_BPY_PYTHON`, else
-//! `.venv-cycles/bin/python` in the repository: README, "Checking against Blender Cycles");
+//! `.venv-cycles/bin/python` in the repository: docs/cycles.md);
 //! otherwise each test says it is skipped and passes. CI does not install Blender.
 
 use dualhair::analysis::compare::{hair_pixels, mean_luminance, relative_rmse};
@@ -14,7 +14,7 @@ use crate::common::{ROOT, bpy_python};
 fn both(name: &str, json: &str, spp: u32) -> Option<(Film, Film)> {
     let Some(python) = bpy_python() else {
         eprintln!(
-            "skipped {name}: no Python with bpy (set DUALHAIR_BPY_PYTHON or make .venv-cycles as the README says)"
+            "skipped {name}: no Python with bpy (set DUALHAIR_BPY_PYTHON or make .venv-cycles as docs/cycles.md says)"
         );
         return None;
     };

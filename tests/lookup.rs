@@ -121,7 +121,7 @@ fn lookup_agrees_with_shadow_rays_and_real_crossings() {
     // Bounds on |lookup / exact - 1| for the first five of NAMES (the grid's march is no truth:
     // it counts about 20% more fibers than the rays cross; the counts toward the sun where the
     // front sun is blocked are about 1.5 fibers, too few to compare closely). Measured on the
-    // brown swatch (48 px, four hits per pixel, default resolutions; README, "The
+    // brown swatch (48 px, four hits per pixel, default resolutions; docs/dual_scattering.md, "The
     // forward-transmittance lookup"): front sun +0.3%, +1.8%, -5.5%, -10.0%, -0.4%; back sun
     // (3% of the hits lit) -6.0%, -7.8%, the rest as in front.
     let mut failed = Vec::new();
@@ -139,8 +139,8 @@ fn lookup_agrees_with_shadow_rays_and_real_crossings() {
     assert!(failed.is_empty(), "{failed:?}");
 }
 
-/// The same on any bundled scene for the README's figures, by default the bundled groom on its
-/// head: `cargo test --release --test lookup -- --ignored --nocapture`; DUALHAIR_LOOKUP_SCENE
+/// The same on any bundled scene for the docs' figures, by default the bundled groom on its
+/// head: `cargo test --release --test main lookup -- --ignored --nocapture`; DUALHAIR_LOOKUP_SCENE
 /// names another scene, DUALHAIR_LOOKUP_SETTINGS (JSON of `dual.lookup`) another resolution.
 #[test]
 #[ignore]

@@ -12,6 +12,7 @@ mod dual;
 mod fibers;
 mod fibersim_cli;
 mod fuzz_replay;
+mod layout;
 mod lobe_cli;
 mod lookup;
 mod meshes;

@@ -218,7 +218,7 @@ fn light_through_thin_hair_reaches_the_wall() {
     // 0.540 (1 - e^-n) T_f(n) with the fiber's T_f over the fibers a ray crosses, with both ways
     // of finding the fibers. `path` is printed beside: forward-scattered light fans out across
     // the fibers' normal plane, and a narrow sheet 0.6 in front of the wall sends part of it
-    // past the shadow, which `dual` does not model (README, "Meshes").
+    // past the shadow, which `dual` does not model (docs/usage.md, "Meshes").
     let dir = tempfile::tempdir().unwrap();
     write(dir.path(), "wall.obj", &quad_obj([[-2.0, 0.6, -1.5], [2.0, 0.6, -1.5], [2.0, 0.6, 1.5], [-2.0, 0.6, 1.5]]));
     let meshes = r#"[{"file": "wall.obj", "color": [0.8, 0.8, 0.8]}]"#;
@@ -371,7 +371,7 @@ fn single_is_path_at_depth_one_with_a_mesh() {
 
 /// Skin seen near the hair in the bundled default scene: `dual` (lookup and rays) against `path`
 /// (and the hair: mean ratio and 4x4-block error over fully covered hair pixels) over the pixels whose camera ray hits the head, that no hair covers and that lie within 8
-/// pixels of hair, for the README: `cargo test --release --test meshes -- --ignored --nocapture`.
+/// pixels of hair, for the docs: `cargo test --release --test main meshes -- --ignored --nocapture`.
 /// DUALHAIR_SKIN_BEFORE names an EXR of the same view made by an older build, compared as well.
 #[test]
 #[ignore]

@@ -111,7 +111,7 @@ fn a_lone_straight_fiber_scatters_light_once() {
     // A straight fiber is convex: light leaving it never meets it again, so path tracing finds
     // exactly single scattering (bit for bit: the same estimator, whose later vertices find
     // nothing). Before rays ignored the overlap of consecutive segments at their joints, this
-    // image was 26% brighter with `path` (README, "Cycles").
+    // image was 26% brighter with `path` (docs/cycles.md).
     let json = r#"{"hair": {"generate": {"kind": "straight", "strands": 1, "points": 16}, "radius": 0.02,
         "rotate": [0, 30, 0]}, "camera": {"width": 48, "height": 48},
         "lights": {"sun": {"direction": [0.3, -1.0, 0.5], "irradiance": 3.0}},

@@ -1,5 +1,5 @@
 //! End-to-end check of `dualhair stability` on its quick grid: every output is written, every
-//! method is measured, the known failure (Box-Muller's density at grazing light, seed 000
+//! method is measured, the known failure (Box-Muller's density at grazing light, Ou et al. 2012
 //! Appendix B) shows where the exact sampler of the same model does not, and bad input fails.
 
 use crate::common::dualhair;
@@ -23,7 +23,7 @@ fn quick_run_writes_every_output_and_shows_box_mullers_failure() {
         assert!(summary.contains(method), "{method} not in the summary");
     }
 
-    // Seed 000 Appendix B: Box-Muller's density ignores the mass it clips, which matters once the
+    // Ou et al. 2012 Appendix B: Box-Muller's density ignores the mass it clips, which matters once the
     // lobes are wide and the light grazing; at normal incidence it is right. The Cauchy sampler
     // of the same model is exact everywhere.
     let csv = std::fs::read_to_string(out.join("slices.csv")).unwrap();

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Writes a Blender hair curves object as a .hair file (Cem Yuksel's format) that dualhair reads.
 
-The export path for hair made in Blender (dualhair reads no Alembic or USD yet: README, "Hair
-formats"). Takes a Curves object (Blender's hair system since 3.3, including hair made with the
+An export path for hair made in Blender beside USD (dualhair reads no Alembic: docs/usage.md, "Hair
+formats: in and out"). Takes a Curves object (Blender's hair system since 3.3, including hair made with the
 procedural hair node assets: modifiers are applied), in world space: each curve is a strand of its
 control points (the renderer joins them with straight pieces; for smooth curves, resample them in
 Blender first, e.g. with the Resample Curves node), its thickness is twice the `radius` attribute

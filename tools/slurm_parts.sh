@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # One task of a Slurm array job that splits a `dualhair render` or `dualhair converge` run into
 # parts (`--part K/N`, K = the task's index); `dualhair merge` then adds the parts up, bit for bit
-# the run one machine would make. README, "Splitting a render across machines".
+# the run one machine would make. docs/usage.md, "Interrupting, resuming and splitting a render".
 #
 #   JOB=$(sbatch --parsable --array=1-8 tools/slurm_parts.sh render parts scenes/default.json --spp 4096)
 #   sbatch --dependency=afterok:$JOB --wrap "dualhair merge parts/part-*-of-8.exr -o render.exr"

@@ -42,13 +42,13 @@ pub fn vdb(data: &[u8]) -> Result<(), String> {
 /// name is chosen by the magic number: the seeds are real .exr and .hdr files.
 pub fn envmap(data: &[u8]) -> Result<(), String> {
     let name = if data.starts_with(&EXR_MAGIC) { "fuzz.exr" } else { "fuzz.hdr" };
-    named(EnvMap::from_bytes(data, Path::new(name), 1.0, 0.0).map(drop).map_err(|e| message(e.as_ref())), name)
+    named(EnvMap::from_bytes(data, Path::new(name), 1.0, 0.0).map(drop).map_err(|e| message(&e)), name)
 }
 
 /// A Wavefront OBJ mesh (`parse_obj`: its `mtllib` lines are never followed).
 pub fn obj(data: &[u8]) -> Result<(), String> {
     const NAME: &str = "fuzz.obj";
-    let triangles = parse_obj(data, Path::new(NAME)).map_err(|e| message(e.as_ref()))?;
+    let triangles = parse_obj(data, Path::new(NAME)).map_err(|e| message(&e))?;
     assert!(triangles.iter().flatten().all(|p| p.is_finite()), "parse_obj returned a vertex that is not finite");
     named(Ok(()), NAME)
 }
@@ -82,7 +82,7 @@ pub fn usd(data: &[u8]) -> Result<(), String> {
 /// A scene file, parsed and built (hair, meshes, camera, lights, BVH).
 pub fn scene(data: &[u8]) -> Result<(), String> {
     let text = std::str::from_utf8(data).map_err(|e| e.to_string())?;
-    let scene = SceneFile::parse(text, Path::new(SCENE)).map_err(|e| message(e.as_ref()))?;
+    let scene = SceneFile::parse(text, Path::new(SCENE)).map_err(|e| message(&e))?;
     // An absolute path or ".." would leave the missing directory and could reach a real file:
     // /dev/zero would be read forever.
     let dir = Path::new(SCENE).parent().expect("SCENE has a directory");
@@ -105,7 +105,7 @@ pub fn scene(data: &[u8]) -> Result<(), String> {
             return Err(format!("fuzz: {strands} x {points} points is over {MAX_SCENE_POINTS}"));
         }
     }
-    scene.build().map(drop).map_err(|e| message(e.as_ref()))
+    scene.build().map(drop).map_err(|e| message(&e))
 }
 
 /// The error with its causes, as anyhow's `{:#}` prints it, after checking that no cause is

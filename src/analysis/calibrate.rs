@@ -15,6 +15,7 @@
 //! the error after the fit is measured on a fresh render at the fitted values.
 
 use crate::analysis::compare::{block_relative_rmse, hair_pixels, mean_luminance};
+use crate::error::{Context, Result, ensure};
 use crate::film::Film;
 use crate::integrators::IntegratorKind;
 use crate::integrators::Term;
@@ -23,7 +24,6 @@ use crate::job::render_scene;
 use crate::output::write_atomically;
 use crate::progress::Progress;
 use crate::scene::SceneFile;
-use anyhow::{Context, Result, ensure};
 
 /// The result of a fit: the factors and the error of `dual` before (the scene's own factors)
 /// and after, as (mean luminance ratio dual/reference, 4x4-block relative RMSE).

@@ -80,7 +80,7 @@ fn block_means(film: &Film, reference: &Film, block: usize) -> Vec<(Rgb, Rgb)> {
 
 /// Relative RMSE of `block` x `block` pixel block means over the blocks `reference` covers
 /// fully (all channels), and the part both images' noise explains: the accuracy measure of
-/// issue 11, steadier than per-pixel errors where a pixel holds only a few fibers. `None` when
+/// the dual-scattering accuracy tables, steadier than per-pixel errors where a pixel holds only a few fibers. `None` when
 /// the reference covers no block fully.
 pub fn block_relative_rmse(test: &Film, reference: &Film, block: usize) -> Option<(f64, f64)> {
     let (t, r) = (block_means(test, reference, block), block_means(reference, reference, block));

@@ -1,5 +1,5 @@
 //! Convergence runs (`dualhair converge`): convergence and speed comparisons of integrators and sampling strategies
-//! (the thesis's Tables 6.1 and 6.2 and Figure 6.8, seed 003 section 6.3), as tables and charts.
+//! (the thesis's Tables 6.1 and 6.2 and Figure 6.8, Lemein 2020 section 6.3), as tables and charts.
 //!
 //! Every method renders the scene at every spp with K seeds; each render is timed alone (scene,
 //! tables and grid are ready before the clock starts) and written to `DIR/renders/`. Then, over
@@ -17,6 +17,7 @@
 
 use crate::analysis::compare::{hair_pixels, mean_variance, mse, rectangle};
 use crate::analysis::plot::register_fonts;
+use crate::error::{Context, Error, Result, bail, ensure, invalid};
 use crate::film::Film;
 use crate::fingerprint::Fnv;
 use crate::integrators::dual::cache::Cache;
@@ -26,9 +27,8 @@ use crate::integrators::{Choice, IntegratorKind, Sampling};
 use crate::job::{Part, dual_inputs, render_prepared};
 use crate::output::write_atomically;
 use crate::progress::{Progress, Silent};
-use crate::render::interrupt::{self, Interrupted};
+use crate::render::interrupt;
 use crate::scene::{Overrides, Scene, SceneFile};
-use anyhow::{Context, Result, anyhow, bail, ensure};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -238,13 +238,12 @@ fn render_job(
         return Ok(seconds);
     }
     match pool.install(|| run_job(job, prepared, aovs)) {
-        Err(e) if e.downcast_ref::<Interrupted>().is_some() => Err(Interrupted(format!(
+        Err(Error::Interrupted(_)) => Err(Error::Interrupted(format!(
             "interrupted: {} of {} renders finished and kept in {}; the same command continues from them",
             done.0,
             done.1,
             dir.display()
-        ))
-        .into()),
+        ))),
         result => result,
     }
 }
@@ -303,7 +302,10 @@ pub fn run(args: &ConvergeSettings, progress: &dyn Progress) -> Result<String> {
     let file = SceneFile::load_with(Some(&scene_path), &overrides)?;
     let scene = file.build()?; // every value checked before any work
     for method in args.methods.iter().chain(&args.truth) {
-        method.sampling.check_model(file.fiber.model).map_err(|e| anyhow::anyhow!("method {method}: sampling {e}"))?;
+        method
+            .sampling
+            .check_model(file.fiber.model)
+            .map_err(|e| crate::error::invalid!("method {method}: sampling {e}"))?;
     }
     let mut spps = args.spp.clone();
     spps.sort_unstable();
@@ -469,7 +471,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<String> {
                         serde_json::from_value(v["args"].clone()).ok()?,
                     ))
                 })
-                .ok_or_else(|| anyhow!("{}: not a part record of `converge --part`", record.display()))?;
+                .ok_or_else(|| invalid!("{}: not a part record of `converge --part`", record.display()))?;
             // Settings that do not change the renders may differ between parts.
             (args.output, args.threads) = (out.to_path_buf(), None);
             match &run {
@@ -657,13 +659,13 @@ fn draw_chart(stats: &Stats, by_time: bool, truth_noise: f64, path: &Path) -> Re
     let title = if by_time { "error vs. wall time (speed vs. accuracy)" } else { "error vs. samples per pixel" };
     let x_label = if by_time { "render time (s)" } else { "samples per pixel" };
     let draw = |root: &DrawingArea<_, Shift>| -> Result<()> {
-        chart(root, stats, by_time, truth_noise, title, x_label).map_err(|e| anyhow!("drawing the chart failed: {e}"))
+        chart(root, stats, by_time, truth_noise, title, x_label).map_err(|e| invalid!("drawing the chart failed: {e}"))
     };
     match path.extension().and_then(|e| e.to_str()) {
         Some("png") => {
             let mut buf = vec![255u8; (SIZE.0 * SIZE.1 * 3) as usize];
             draw(&BitMapBackend::with_buffer(&mut buf, SIZE).into_drawing_area())?;
-            let image = image::RgbImage::from_raw(SIZE.0, SIZE.1, buf).ok_or_else(|| anyhow!("chart buffer size"))?;
+            let image = image::RgbImage::from_raw(SIZE.0, SIZE.1, buf).ok_or_else(|| invalid!("chart buffer size"))?;
             crate::output::write_png(path, &image)
         }
         Some("svg") => {
@@ -676,7 +678,7 @@ fn draw_chart(stats: &Stats, by_time: bool, truth_noise: f64, path: &Path) -> Re
                 title,
                 x_label,
             )
-            .map_err(|e| anyhow!("drawing the chart failed: {e}"))?;
+            .map_err(|e| invalid!("drawing the chart failed: {e}"))?;
             write_atomically(path, |tmp| Ok(std::fs::write(tmp, &svg)?))
         }
         _ => bail!("{}: charts are .png or .svg", path.display()),

@@ -1,8 +1,8 @@
 //! Lat-long images of a fiber's scattering lobe (`dualhair lobe`, `dualhair fibersim`).
 
 use crate::analysis::plot::HeatMap;
+use crate::error::Result;
 use crate::output::{ImageFormat, write_exr, write_png};
-use anyhow::Result;
 use precompute::lobe::LobeImage;
 use std::path::Path;
 

@@ -1,6 +1,6 @@
 //! Charts drawn with plotters into in-memory bitmaps, with an embedded font (no system fonts).
 
-use anyhow::{Result, anyhow};
+use crate::error::{Result, invalid};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 use std::sync::Once;
@@ -62,7 +62,7 @@ impl<'a> HeatMap<'a> {
         caption: &str,
         range: (f64, f64),
     ) -> Result<()> {
-        let err = |e: &dyn std::fmt::Display| anyhow!("drawing the chart failed: {e}");
+        let err = |e: &dyn std::fmt::Display| invalid!("drawing the chart failed: {e}");
         let (min, max) = range;
         let color =
             |v: f64| ViridisRGB::get_color_normalized(v.max(f64::MIN_POSITIVE).log10().clamp(min, max), min, max);
@@ -112,7 +112,7 @@ fn draw_maps(
 ) -> Result<image::RgbImage> {
     register_fonts();
     let mut buf = vec![255u8; (w * h * 3) as usize];
-    let err = |e: &dyn std::fmt::Display| anyhow!("drawing the chart failed: {e}");
+    let err = |e: &dyn std::fmt::Display| invalid!("drawing the chart failed: {e}");
     let (min, max) = range;
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
@@ -153,7 +153,7 @@ fn draw_maps(
             .map_err(|e| err(&e))?;
         root.present().map_err(|e| err(&e))?;
     }
-    image::RgbImage::from_raw(w, h, buf).ok_or_else(|| anyhow!("chart buffer has the wrong size"))
+    image::RgbImage::from_raw(w, h, buf).ok_or_else(|| invalid!("chart buffer has the wrong size"))
 }
 
 /// How a [`CellMap`] maps values to colors.
@@ -212,7 +212,7 @@ impl CellMap<'_> {
                 let mut buf = vec![255u8; (size.0 * size.1 * 3) as usize];
                 self.draw(&BitMapBackend::with_buffer(&mut buf, size).into_drawing_area(), cols, rows)?;
                 let image = image::RgbImage::from_raw(size.0, size.1, buf)
-                    .ok_or_else(|| anyhow!("chart buffer has the wrong size"))?;
+                    .ok_or_else(|| invalid!("chart buffer has the wrong size"))?;
                 crate::output::write_png(path, &image)
             }
             Some("svg") => {
@@ -220,7 +220,7 @@ impl CellMap<'_> {
                 self.draw(&SVGBackend::with_string(&mut svg, size).into_drawing_area(), cols, rows)?;
                 crate::output::write_atomically(path, |tmp| Ok(std::fs::write(tmp, &svg)?))
             }
-            _ => Err(anyhow!("{}: unsupported chart type (use .png or .svg)", path.display())),
+            _ => Err(invalid!("{}: unsupported chart type (use .png or .svg)", path.display())),
         }
     }
 
@@ -231,7 +231,7 @@ impl CellMap<'_> {
         rows: usize,
     ) -> Result<()> {
         register_fonts();
-        let err = |e: &dyn std::fmt::Display| anyhow!("drawing the chart failed: {e}");
+        let err = |e: &dyn std::fmt::Display| invalid!("drawing the chart failed: {e}");
         root.fill(&WHITE).map_err(|e| err(&e))?;
         let body = root.titled(self.title, ("sans-serif", 20)).map_err(|e| err(&e))?;
         let (nx, ny) = (self.x_ticks.len(), self.y_ticks.len());

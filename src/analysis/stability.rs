@@ -1,14 +1,15 @@
-//! The stability survey (`dualhair stability`): every fiber model with every sampler over the parameter grid of seed 001
+//! The stability survey (`dualhair stability`): every fiber model with every sampler over the parameter grid of d'Eon,
+//! Marschner and Hanika 2014
 //! section 2.1 (extended to grazing theta = 1.5707), measured where methods are known to fail:
 //! NaN/Inf, negative values, albedo (the white furnace), the reported density's integral, the
 //! agreement of each sample with `eval_pdf`, importance- against uniform-sampled estimates, and
 //! the distance of each model's lobe from the rough-cylinder simulation (`fibersim`).
 
 use crate::analysis::plot::{CellMap, CellScale, HeatMap, heat_maps};
+use crate::error::{Context, Result, bail};
 use crate::output::write_atomically;
 use crate::output::write_png;
 use crate::progress::Progress;
-use anyhow::{Context, Result, bail};
 use precompute::fibersim::FiberSim;
 use precompute::stability::{
     Estimates, GridPoint, Health, Method, estimates, health, lobe_distance, lobe_histogram, params_for,
@@ -17,7 +18,7 @@ use rayon::prelude::*;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Runs every model x sampler over seed 001's parameter grid and writes where each fails: a CSV
+/// Runs every model x sampler over d'Eon, Marschner and Hanika 2014's parameter grid and writes where each fails: a CSV
 /// per part and a heat map per measure (PNG), with a summary.md, into the output folder.
 ///
 /// The full grid (theta_i x alpha x mu_a x beta x eta, 16,800 points per method) is checked for
@@ -46,7 +47,7 @@ pub struct StabilitySettings {
     pub threads: Option<usize>,
 }
 
-/// Seed 001 section 2.1's grid, with theta_i extended to 1.5707 (grazing, about 1e-4 short of
+/// d'Eon, Marschner and Hanika 2014 section 2.1's grid, with theta_i extended to 1.5707 (grazing, about 1e-4 short of
 /// pi/2: written as such so that it prints as it reads).
 #[allow(clippy::approx_constant)]
 const THETAS: [f64; 12] = [0.0, 0.25, 0.5, 0.75, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.55, 1.5707];
@@ -59,7 +60,7 @@ const ETAS: [f64; 2] = [1.55, 1.55 / 1.33];
 const SLICE_BETA: f64 = 0.04;
 const BASE: GridPoint = GridPoint { theta: 0.0, beta: SLICE_BETA, alpha: 0.0, mu_a: 0.0, eta: 1.55 };
 
-/// Lat-long resolution of the simulation comparison (seed 001 binned 400 x 100; coarser bins
+/// Lat-long resolution of the simulation comparison (d'Eon, Marschner and Hanika 2014 binned 400 x 100; coarser bins
 /// leave less noise in the distance for the rays affordable at every grid point).
 const SIM_SIZE: (usize, usize) = (120, 60);
 
@@ -250,7 +251,7 @@ fn measure(slice: &'static str, p: &GridPoint, args: &StabilitySettings, seed: u
 }
 
 /// Points where the lobes are drawn beside the simulation: the seed's figures' roughnesses and
-/// absorptions (seed 001 figures 3-5), from a near-normal to a grazing light.
+/// absorptions (d'Eon, Marschner and Hanika 2014 figures 3-5), from a near-normal to a grazing light.
 const LOBE_POINTS: [GridPoint; 4] = [
     GridPoint { theta: 0.5, beta: 0.04, alpha: 2.0, mu_a: 0.25, eta: 1.55 },
     GridPoint { theta: 1.1, beta: 0.06, alpha: 2.0, mu_a: 0.12, eta: 1.55 },

@@ -2,8 +2,8 @@
 //! channel, like the attenuation plots of Zinke et al. 2008 and the thesis (ch. 3.3).
 
 use crate::analysis::plot::register_fonts;
+use crate::error::{Result, bail, invalid};
 use crate::output::{write_atomically, write_png};
-use anyhow::{Result, anyhow, bail};
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
@@ -73,7 +73,7 @@ pub fn draw_tables(tables: &Tables, path: &Path) -> Result<()> {
             let mut buf = vec![255u8; (SIZE.0 * SIZE.1 * 3) as usize];
             draw(&BitMapBackend::with_buffer(&mut buf, SIZE).into_drawing_area(), tables)?;
             let image = image::RgbImage::from_raw(SIZE.0, SIZE.1, buf)
-                .ok_or_else(|| anyhow!("chart buffer has the wrong size"))?;
+                .ok_or_else(|| invalid!("chart buffer has the wrong size"))?;
             write_png(path, &image)
         }
         Some("svg") => {
@@ -87,7 +87,7 @@ pub fn draw_tables(tables: &Tables, path: &Path) -> Result<()> {
 
 fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, tables: &Tables) -> Result<()> {
     register_fonts();
-    let err = |e: &dyn std::fmt::Display| anyhow!("drawing the chart failed: {e}");
+    let err = |e: &dyn std::fmt::Display| invalid!("drawing the chart failed: {e}");
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let title = match &tables.fiber {
         Some(f) => {

@@ -1,5 +1,5 @@
 //! `dualhair compare`: how far one image is from another over the hair, in the measures the
-//! README's tables use (mean ratio, per-pixel and 4x4-block relative RMSE).
+//! docs' tables use (mean ratio, per-pixel and 4x4-block relative RMSE).
 
 use crate::say;
 use anyhow::{Result, bail, ensure};

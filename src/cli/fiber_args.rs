@@ -32,8 +32,8 @@ pub struct FiberArgs {
     #[arg(long, default_value_t = 1.55, allow_negative_numbers = true)]
     pub eta: f64,
     /// Fiber scattering model: chiang (Chiang et al. 2016; --beta-m, --beta-n, --alpha),
-    /// marschner (Marschner et al. 2003 as seed 003 uses it; --alpha-r, --beta-r), sadeghi
-    /// (Sadeghi et al. 2010 as seed 000 gives it; --sadeghi-*) or deon2014 (d'Eon et al. 2014;
+    /// marschner (Marschner et al. 2003 as Lemein 2020 uses it; --alpha-r, --beta-r), sadeghi
+    /// (Sadeghi et al. 2010 as Ou et al. 2012 give it; --sadeghi-*) or deon2014 (d'Eon et al. 2014;
     /// --beta-m as its roughness beta, --alpha).
     #[arg(long, default_value = "chiang")]
     pub model: ModelKind,

@@ -1,5 +1,5 @@
-//! `dualhair fibersim`: the Monte Carlo ground truth of one rough fiber (seed 001 section 2.1) as
-//! a lat-long image, directly comparable with `dualhair lobe`.
+//! `dualhair fibersim`: the Monte Carlo ground truth of one rough fiber (d'Eon, Marschner and Hanika 2014,
+//! section 2.1) as a lat-long image, directly comparable with `dualhair lobe`.
 
 use crate::cli::fiber_args::FiberArgs;
 use crate::say;
@@ -15,7 +15,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 /// What `dualhair fibersim --help` says (the subcommand's long description).
-pub const LONG_ABOUT: &str = r#"Monte Carlo ground truth of one rough fiber (d'Eon, Marschner and Hanika 2014; seed 001
+pub const LONG_ABOUT: &str = r#"Monte Carlo ground truth of one rough fiber (d'Eon, Marschner and Hanika 2014,
 section 2.1), written as a lat-long image comparable with `dualhair lobe`.
 
 Rays arrive from direction --theta (azimuth 0) at offsets uniform across an infinite

@@ -111,7 +111,7 @@ fn tables(args: &TablesArgs) -> Result<()> {
 
 /// The hair of a .hair file or of a scene file.
 pub fn load_hair(path: &Path) -> Result<Strands> {
-    SceneFile::load(path)?.hair()
+    Ok(SceneFile::load(path)?.hair()?)
 }
 
 fn density(args: &DensityArgs) -> Result<()> {

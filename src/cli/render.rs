@@ -4,6 +4,7 @@ use crate::cli::choice;
 use crate::cli::progress::Terminal;
 use crate::say;
 use anyhow::{Context, Result, ensure};
+use dualhair::error::Error;
 use dualhair::film::Film;
 use dualhair::film::partial;
 use dualhair::integrators::dual::DualModel;
@@ -13,7 +14,7 @@ use dualhair::integrators::{IntegratorKind, Sampling};
 use dualhair::job::{Part, dual_inputs, render_id, render_into, resolve_auto, resume_from};
 use dualhair::output::{ImageFormat, ensure_writable};
 use dualhair::progress::Progress;
-use dualhair::render::interrupt::{self, Interrupted};
+use dualhair::render::interrupt;
 use dualhair::render::{SUM_CEILING, Sums};
 use dualhair::scene::{Overrides, SceneFile};
 use precompute::fiber::ModelKind;
@@ -153,7 +154,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         Sums::empty(size.0, size.1, samples.start, args.aovs)
     };
     interrupt::install();
-    // Seconds on a film-scale groom (README, "Film-scale grooms"), so it says what it is doing.
+    // Seconds on a film-scale groom (docs/usage.md, "Film-scale grooms"), so it says what it is doing.
     let building = progress.task("loading the hair and building its BVH", None);
     let mut scene = file.build()?;
     drop(building);
@@ -189,11 +190,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let seconds = (start.elapsed() - setup).as_secs_f64();
     if !done {
         if sums.spp() == 0 {
-            return Err(Interrupted("interrupted before the first pass finished: nothing written".into()).into());
+            return Err(Error::Interrupted("interrupted before the first pass finished: nothing written".into()).into());
         }
         partial::write(&exr, &sums, &id, args.aovs)?;
         Film::from_sums(&sums).write_png(&png, id.exposure)?;
-        return Err(Interrupted(format!(
+        return Err(Error::Interrupted(format!(
             "interrupted: wrote {} and {} with the {} finished spp (samples {}..{}) of {}; the same command with --resume continues it",
             exr.display(),
             png.display(),

@@ -6,7 +6,7 @@ use anyhow::Result;
 use dualhair::analysis::stability::{self, StabilitySettings};
 use std::path::PathBuf;
 
-/// Runs every model x sampler over seed 001's parameter grid and writes where each fails: a CSV
+/// Runs every model x sampler over d'Eon, Marschner and Hanika 2014's parameter grid and writes where each fails: a CSV
 /// per part and a heat map per measure (PNG), with a summary.md, into the output folder.
 ///
 /// The full grid (theta_i x alpha x mu_a x beta x eta, 16,800 points per method) is checked for
@@ -49,12 +49,12 @@ impl StabilityArgs {
     fn settings(&self) -> StabilitySettings {
         StabilitySettings {
             output: self.output.clone(),
-            samples: self.samples.clone(),
-            rays: self.rays.clone(),
-            hits: self.hits.clone(),
-            quick: self.quick.clone(),
-            seed: self.seed.clone(),
-            threads: self.threads.clone(),
+            samples: self.samples,
+            rays: self.rays,
+            hits: self.hits,
+            quick: self.quick,
+            seed: self.seed,
+            threads: self.threads,
         }
     }
 }

@@ -3,10 +3,10 @@
 
 pub mod partial;
 
+use crate::error::{Context, Result, ensure, invalid};
 use crate::integrators::{Term, Terms};
 use crate::output::{write_atomically, write_png};
 use crate::render::{PixelSums, Sums, TermSums};
-use anyhow::{Context, Result, anyhow, ensure};
 use exr::prelude::*;
 use precompute::spectrum::Rgb;
 use std::path::Path;
@@ -144,8 +144,8 @@ impl Film {
         };
         let n = width * height;
         let need =
-            |name: &str| channel(name)?.ok_or_else(|| anyhow!("{}: the image has no {name} channel", path.display()));
-        let or_zero = |name: &str| Ok::<_, anyhow::Error>(channel(name)?.unwrap_or_else(|| vec![0.0; n]));
+            |name: &str| channel(name)?.ok_or_else(|| invalid!("{}: the image has no {name} channel", path.display()));
+        let or_zero = |name: &str| Ok::<_, crate::error::Error>(channel(name)?.unwrap_or_else(|| vec![0.0; n]));
         let (r, g, b, a) = (need("R")?, need("G")?, need("B")?, need("A")?);
         let (vr, vg, vb) = (or_zero("variance.R")?, or_zero("variance.G")?, or_zero("variance.B")?);
         let spp = match layer.attributes.other.get(&Text::from("spp")) {

@@ -11,10 +11,10 @@
 //! spp), `dualhair.seed`, `dualhair.exposure` and `dualhair.fingerprint` (a hash of the scene and
 //! settings, spp aside).
 
+use crate::error::{Result, bail, ensure, invalid};
 use crate::film::{ExrExtras, ExrLayer, Film, read_exr_layer};
 use crate::integrators::Term;
 use crate::render::{Exact, PixelSums, Sums, TermSums};
-use anyhow::{Context, Result, anyhow, bail, ensure};
 use exr::prelude::{AnyChannel, AttributeValue, FlatSamples, Text};
 use std::path::Path;
 
@@ -102,7 +102,7 @@ pub fn read(path: &Path) -> Result<Option<Partial>> {
     };
     let text = |name: &str| match attribute(name) {
         Some(AttributeValue::Text(t)) => Ok(t.to_string()),
-        _ => Err(anyhow!("{}: the partial render has no text attribute {name}", path.display())),
+        _ => Err(invalid!("{}: the partial render has no text attribute {name}", path.display())),
     };
     let AttributeValue::Text(samples) = samples else {
         bail!("{}: dualhair.samples is not text", path.display());
@@ -112,7 +112,7 @@ pub fn read(path: &Path) -> Result<Option<Partial>> {
         .split_once("..")
         .and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?)))
         .filter(|(a, b)| a <= b)
-        .ok_or_else(|| anyhow!("{}: dualhair.samples `{range}` is not START..END", path.display()))?;
+        .ok_or_else(|| invalid!("{}: dualhair.samples `{range}` is not START..END", path.display()))?;
     let spp = match attribute("dualhair.spp") {
         Some(AttributeValue::I32(n)) if *n >= 0 && end <= *n as u32 => *n as u32,
         _ => bail!("{}: dualhair.spp is missing or below the samples held ({range})", path.display()),
@@ -121,7 +121,7 @@ pub fn read(path: &Path) -> Result<Option<Partial>> {
         Some(AttributeValue::F64(e)) if e.is_finite() => *e,
         _ => bail!("{}: dualhair.exposure is missing or not finite", path.display()),
     };
-    let seed = text("dualhair.seed")?.parse().with_context(|| format!("{}: dualhair.seed", path.display()))?;
+    let seed = text("dualhair.seed")?.parse().map_err(|e| invalid!("{}: dualhair.seed: {e}", path.display()))?;
     let id = RenderId { fingerprint: text("dualhair.fingerprint")?, seed, spp, exposure };
 
     let (sum, sum_sq) = (read_exact(&layer, path, "sum")?, read_exact(&layer, path, "sum_sq")?);
@@ -144,7 +144,7 @@ pub fn read(path: &Path) -> Result<Option<Partial>> {
 pub fn add_parts(mut parts: Vec<(&Path, Partial)>) -> Result<(Sums, Partial)> {
     parts.sort_by_key(|(_, p)| p.sums.samples.start);
     let mut iter = parts.into_iter();
-    let (first_path, first) = iter.next().ok_or_else(|| anyhow::anyhow!("no parts to add"))?;
+    let (first_path, first) = iter.next().ok_or_else(|| crate::error::invalid!("no parts to add"))?;
     ensure!(
         first.sums.samples.start == 0,
         "no part holds the first samples (the earliest part, {}, starts at sample {})",

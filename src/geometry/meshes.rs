@@ -7,7 +7,7 @@
 //! radii: a ray from a hair root at the scalp still meets the scalp. Callers see world units.
 //! Triangles of zero area (which no ray can hit) are dropped when read.
 
-use anyhow::{Context, Result, bail};
+use crate::error::{Context, Result, bail};
 use glam::{DVec3, Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
@@ -223,7 +223,7 @@ pub fn parse_obj(bytes: &[u8], path: &Path) -> Result<Vec<[Vec3; 3]>> {
 }
 
 /// tobj's error, said in terms of the file.
-fn obj_error(path: &Path, e: tobj::LoadError) -> anyhow::Error {
+fn obj_error(path: &Path, e: tobj::LoadError) -> crate::error::Error {
     use tobj::LoadError::*;
     let problem = match e {
         ReadError => "cannot read it (not a text file?)".into(),
@@ -236,5 +236,5 @@ fn obj_error(path: &Path, e: tobj::LoadError) -> anyhow::Error {
         FaceNormalOutOfBounds => "a face refers to a normal that does not exist".into(),
         other => format!("invalid OBJ: {other}"),
     };
-    anyhow::anyhow!("{}: {problem}", path.display())
+    crate::error::invalid!("{}: {problem}", path.display())
 }

@@ -8,7 +8,7 @@
 //! the fiber there "enters" the next capsule without crossing the fiber's surface, so an entry
 //! point inside a neighbouring capsule of the same strand is no hit. Without that rule, light
 //! leaving a lone straight fiber near a joint "hit" the next segment: 26% more light than Blender
-//! Cycles on a front-lit fiber, which agrees with single scattering there (README, "Cycles").
+//! Cycles on a front-lit fiber, which agrees with single scattering there (docs/cycles.md).
 //!
 //! CwBvh skips nodes closer than a hard-coded 1e-4 along the ray (notes/dependencies.md), which
 //! would drop hits between hair-thin fibers in scene units. The BVH therefore works in "fiber
@@ -138,7 +138,7 @@ fn inside_capsule(p: DVec3, c: &Capsule) -> bool {
 }
 
 /// Memory the BVH's build takes per segment at its peak, above the strands: 2,590 MB over 9.75M
-/// segments measured on the film-scale groom (README, "Film-scale grooms"), mostly obvhs's own
+/// segments measured on the film-scale groom (docs/usage.md, "Film-scale grooms"), mostly obvhs's own
 /// working memory.
 pub const BUILD_BYTES_PER_SEGMENT: u64 = 270;
 
@@ -159,7 +159,7 @@ impl Fibers {
             .collect();
         let mut build_time = Duration::ZERO;
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, BvhBuildParams::slow_build(), &mut build_time);
-        // The build's own memory is its peak (README, "Film-scale grooms"): the segments are
+        // The build's own memory is its peak (docs/usage.md, "Film-scale grooms"): the segments are
         // gathered only after it, and the boxes let go.
         drop(aabbs);
         let segments: Vec<_> = strands.segments().collect();

@@ -163,7 +163,7 @@ pub(crate) fn light_weight(s: &LightSample, direction_pdf: impl FnOnce() -> f64)
 }
 
 /// The fiber frame at a hit seen along `dir` (unit, world), the direction toward the viewer in
-/// it, and the offset h across the fiber (design section 3): what every shading of a hit starts
+/// it, and the offset h across the fiber ([`precompute::conventions`]): what every shading of a hit starts
 /// from, and what the forward-transmittance lookup bins its entries by.
 pub(crate) fn hit_frame(hit: &Hit, dir: DVec3) -> (Frame, DVec3, f64) {
     let frame = Frame::new(hit.tangent);
@@ -190,7 +190,7 @@ pub struct CameraSample {
 /// 2008, section 4), so that each of `dual`'s terms can be compared with the light `path` finds
 /// on the same kind of path. Events are classed at the fibers between the light and the camera
 /// fiber, not at the camera fiber itself: an event is backward when light leaves into the half of
-/// azimuths it came from (|phi| < pi/2, design section 3), else forward. Together the terms are
+/// azimuths it came from (|phi| < pi/2, [`precompute::conventions`]), else forward. Together the terms are
 /// the radiance of light scattered by hair; background seen directly is in none of them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Term {

@@ -115,7 +115,7 @@ impl<M: FiberModel> Integrator for PathTracer<'_, M> {
             // Russian roulette before the ray from the second vertex on (a path that ends traces
             // no more rays), compensated by 1 / (survival probability). Started at the third
             // vertex and after the ray, it took 8-31% more time per sample for noise per sample
-            // the same within measurement (README, "Speed of the path tracer").
+            // the same within measurement (docs/performance.md, "What makes `path` fast").
             if depth >= 2 && depth < self.max_depth {
                 let survive = throughput.0.iter().copied().fold(0.0, f64::max).min(0.95);
                 if sampler.get_1d() >= survive {

@@ -9,12 +9,6 @@ static REQUESTED: AtomicBool = AtomicBool::new(false);
 /// The exit status of a process stopped by an interrupt: 128 + SIGINT, as shells report it.
 pub const EXIT_STATUS: u8 = 130;
 
-/// An error saying that the work stopped because it was interrupted; `main` exits with
-/// [`EXIT_STATUS`] on it.
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct Interrupted(pub String);
-
 /// Installs the handler for SIGINT and SIGTERM (once per process; later calls do nothing).
 pub fn install() {
     static ONCE: std::sync::Once = std::sync::Once::new();

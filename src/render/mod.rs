@@ -41,7 +41,7 @@ fn fixed(v: f64) -> i128 {
     }
 }
 
-/// A sum of RGB values in fixed point (see [`SCALE`]). A non-finite sample saturates (NaN counts
+/// A sum of RGB values in fixed point (see `SCALE`). A non-finite sample saturates (NaN counts
 /// as +inf) rather than vanishing, so a broken sample shows as a bright pixel, not lost light.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Exact(pub [i128; 3]);

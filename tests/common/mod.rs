@@ -37,8 +37,8 @@ pub fn render(file: &SceneFile) -> Film {
 }
 
 /// The Python that can import bpy and numpy (tools/cycles_reference.py needs both), if any:
-/// `DUALHAIR_BPY_PYTHON`, else `.venv-cycles/bin/python` in the repository (README, "Checking
-/// against Blender Cycles").
+/// `DUALHAIR_BPY_PYTHON`, else `.venv-cycles/bin/python` in the repository
+/// (docs/cycles.md).
 pub fn bpy_python() -> Option<PathBuf> {
     let candidate = std::env::var_os("DUALHAIR_BPY_PYTHON")
         .map(PathBuf::from)

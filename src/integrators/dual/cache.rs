@@ -6,13 +6,13 @@
 //! code that makes them ([`CODE_ID`]), and a cached table also records its inputs, which are
 //! compared on load.
 
+use crate::error::{Context, Result};
 use crate::fingerprint::{CODE_ID, Fnv};
 use crate::integrators::dual::transmittance::{ForwardLookup, LookupSettings};
 use crate::lights::Lights;
 use crate::memory;
 use crate::output::write_atomically;
 use crate::progress::Progress;
-use anyhow::{Context, Result};
 use precompute::density::{DensityGrid, read_vdb, write_vdb};
 use precompute::fiber::{Fiber, FiberParams};
 use precompute::strands::Strands;
@@ -40,7 +40,7 @@ impl Cache {
 
     /// The hash every entry's key starts from.
     fn key(&self) -> Fnv {
-        Fnv::new().bytes(self.code.as_bytes())
+        Fnv::START.bytes(self.code.as_bytes())
     }
 
     /// The default location (see the module documentation).

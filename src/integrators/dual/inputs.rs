@@ -1,12 +1,12 @@
 //! What the dual integrator precomputes for a hair and its lights: the fiber's tables, the
 //! hair's density grid and, for `dual.shadows` "lookup", the forward-transmittance lookup.
 
+use crate::error::Result;
 use crate::integrators::dual::cache::Cache;
 use crate::integrators::dual::options::{DualSpec, ShadowMode};
 use crate::integrators::dual::transmittance::ForwardLookup;
 use crate::lights::Lights;
 use crate::progress::Progress;
-use anyhow::Result;
 use precompute::density::{DensityGrid, read_vdb};
 use precompute::fiber::FiberParams;
 use precompute::strands::Strands;

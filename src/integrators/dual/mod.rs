@@ -1,5 +1,5 @@
 //! `dual`: the dual-scattering integrator (Zinke et al. 2008, ray-shooting variant, with the
-//! thesis's voxel density grid: seed 003 chapters 3.3 and 5.2; design section 4).
+//! thesis's voxel density grid: Lemein 2020 chapters 3.3 and 5.2).
 //!
 //! A camera ray stops at the first fiber it hits, as in `single`. There the fiber-to-fiber bounces
 //! of `path` are replaced by a shading function F(wo, wi) of the direction wi toward the light:
@@ -199,7 +199,7 @@ impl DualModel {
     }
 
     /// The local backscattering albedo A_b for a_f, a_b (one channel), given the tables' own
-    /// A_b (Zinke et al. 2008 eq. 14 with its three-event term; design section 4).
+    /// A_b (Zinke et al. 2008 eq. 14 with its three-event term).
     ///
     /// Half-space (`kubelka_munk`, `two_stream`): light entering a half-space of fibers with
     /// forward (a_f) and backward (a_b) fractions per fiber crossed, fibers placed at random so
@@ -230,7 +230,7 @@ impl DualModel {
 pub const MIN_COSINE: f64 = 0.1;
 
 /// The mean cosine g of the angle between the way light travels before and after a fiber
-/// scatters it forward (design section 3: |phi| >= pi/2 from the light's azimuth), per channel,
+/// scatters it forward (|phi| >= pi/2 from the light's azimuth, [`precompute::conventions`]), per channel,
 /// weighted by the energy scattered, over the offsets h and the inclinations of the fibers a ray
 /// crosses ([`crossing_mean`]'s cos^2 theta). By reciprocity, the fiber's sampler at "wo" = the
 /// direction toward the light draws the directions the light leaves in, with weights
@@ -618,7 +618,7 @@ impl<M> DualScattering<'_, M> {
     /// One estimate of the radiance a diffuse mesh point sends out (the same every way): the
     /// lights' direct light, arriving through the hair as [`DualScattering::through_hair`] says,
     /// from one sample of each light and one cosine sample, MIS-weighted. The light that hair
-    /// scatters back onto it is not modeled (README, "Meshes").
+    /// scatters back onto it is not modeled (docs/usage.md, "Meshes").
     fn mesh_radiance(&self, hit: &MeshHit, sampler: &mut impl Sampler) -> Rgb {
         let from = meshes::spawn_point(hit);
         let mut radiance = Rgb::ZERO;

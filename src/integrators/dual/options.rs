@@ -6,7 +6,7 @@ use crate::lights::Lights;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
-/// The dual-scattering integrator's parameters (Zinke et al. 2008; design section 4).
+/// The dual-scattering integrator's parameters (Zinke et al. 2008 section 4).
 #[derive(Serialize, Deserialize, Debug, Clone)]
 #[serde(default, deny_unknown_fields)]
 pub struct DualSpec {
@@ -44,7 +44,7 @@ impl DualSpec {
     /// sun or a constant sky. Under a map most of a `dual` sample's noise is where its light
     /// direction falls, which more directions per camera ray average away for less than more
     /// camera rays cost; under a sun's small disc the noise is mostly which fibers the camera ray
-    /// hits, and more light samples only cost time (README, "Light samples per camera hit").
+    /// hits, and more light samples only cost time (docs/dual_scattering.md, "Light samples per camera hit").
     pub fn light_samples(&self, lights: &Lights) -> u32 {
         self.light_samples.unwrap_or(if lights.has_map() { 4 } else { 1 })
     }

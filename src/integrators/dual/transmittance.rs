@@ -12,7 +12,7 @@
 //! resolved; here the innermost too, which a back light's camera sees; Kim and Neumann 2001
 //! accumulate such counts in fixed slices). A fiber of radius r crossing a texel of side s along
 //! a length l (projected across the light) adds 2 r l / s^2 to the expected count of a ray
-//! through the texel: the density grid's count (design section 4) at the scale of one texel.
+//! through the texel: the density grid's count (Lemein 2020 section 5.2) at the scale of one texel.
 //! Between knots the count is linear in depth, across texels bilinear.
 //!
 //! With fibers placed at random across a texel the count N along a ray is Poisson, so the lit
@@ -28,9 +28,9 @@
 //! Meshes are not in the maps: `dual` traces its (cheap) shadow rays against them exactly.
 //! Units: depths and texels in world units; n is dimensionless.
 
+use crate::error::ensure;
 use crate::lights::Lights;
 use crate::progress::Progress;
-use anyhow::ensure;
 use glam::{DVec2, DVec3};
 use precompute::strands::Strands;
 use rayon::prelude::*;
@@ -39,7 +39,7 @@ use std::f64::consts::{FRAC_1_SQRT_2, SQRT_2};
 use std::io::Write;
 
 /// Resolutions of the lookup (scene file `dual.lookup`), chosen by measured error against
-/// shadow rays and grid marches (README, "The forward-transmittance lookup").
+/// shadow rays and grid marches (docs/dual_scattering.md, "The forward-transmittance lookup").
 #[derive(serde::Serialize, Deserialize, Debug, Clone, Copy, PartialEq)]
 #[serde(default, deny_unknown_fields)]
 pub struct LookupSettings {
@@ -59,7 +59,7 @@ impl Default for LookupSettings {
 }
 
 impl LookupSettings {
-    pub fn validate(&self) -> anyhow::Result<()> {
+    pub fn validate(&self) -> crate::error::Result<()> {
         for (name, v) in [("sun_texel", self.sun_texel), ("env_texel", self.env_texel)] {
             ensure!(
                 v.is_finite() && (0.25..=1024.0).contains(&v),
@@ -598,7 +598,7 @@ impl ForwardLookup {
     /// u32), the count of maps (u32) and the maps, or a byte 0. A map: its direction (3 f64),
     /// corner (2 f64), texel and fiber width (2 f64), size (2 u32), tile slots (u32 per tile of
     /// `TILE`^2 texels), the count of stored texels (u64), the stored tiles' base depths (f32),
-    /// the texels' first depths (u16) and spans (u8, see [`DepthMap`]) and quantized cumulative
+    /// the texels' first depths (u16) and spans (u8, see `DepthMap`) and quantized cumulative
     /// counts (`KNOTS` bytes each).
     pub fn write(&self, w: &mut impl Write) -> std::io::Result<()> {
         w.write_all(MAGIC)?;

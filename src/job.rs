@@ -133,7 +133,7 @@ pub fn render_into(
     };
     let (world, lights) = (scene.world(), &scene.lights);
     match sampling {
-        Sampling::Importance | Sampling::Thesis | Sampling::BoxMuller | Sampling::Iterative => {
+        Sampling::Importance | Sampling::Flawed(_) => {
             let tracer = PathTracer { world, fiber: &fiber, lights, max_depth };
             Ok(render(&scene.camera, &tracer, seed, sums, end, progress))
         }

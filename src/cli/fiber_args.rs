@@ -31,11 +31,8 @@ pub struct FiberArgs {
     /// Index of refraction of the fiber (> 1).
     #[arg(long, default_value_t = 1.55, allow_negative_numbers = true)]
     pub eta: f64,
-    /// Fiber scattering model: chiang (Chiang et al. 2016; --beta-m, --beta-n, --alpha),
-    /// marschner (Marschner et al. 2003 as Lemein 2020 uses it; --alpha-r, --beta-r), sadeghi
-    /// (Sadeghi et al. 2010 as Ou et al. 2012 give it; --sadeghi-*) or deon2014 (d'Eon et al. 2014;
-    /// --beta-m as its roughness beta, --alpha).
-    #[arg(long, default_value = "chiang")]
+    /// Fiber scattering model (the list comes from the models themselves).
+    #[arg(long, default_value = "chiang", help = format!("Fiber scattering model: {}", ModelKind::help_all()))]
     pub model: ModelKind,
     /// Marschner: longitudinal shift of the R lobe in degrees (negative puts R toward the root).
     #[arg(long, default_value_t = MarschnerParams::default().alpha_r, allow_negative_numbers = true)]

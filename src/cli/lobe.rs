@@ -5,7 +5,7 @@ use crate::say;
 use anyhow::{Result, bail};
 use dualhair::analysis::lobe::write_lobe_image;
 use dualhair::output::{ImageFormat, ensure_writable};
-use precompute::fiber::{Fiber, ModelKind};
+use precompute::fiber::{Fiber, FiberParams};
 use precompute::lobe::lobe_image;
 use std::f64::consts::FRAC_PI_2;
 use std::path::PathBuf;
@@ -47,7 +47,7 @@ pub fn run(args: &LobeArgs) -> Result<()> {
     let model = Fiber::exact(&params)?;
     let rule = params.h_rule(1.0);
     let image = lobe_image(&model, args.theta, args.width, args.height, &rule);
-    write_lobe_image(&args.output, &image, &title(args), "luminance, h-averaged f cos (1/sr)")?;
+    write_lobe_image(&args.output, &image, &title(args.theta, &params), "luminance, h-averaged f cos (1/sr)")?;
     let a = image.albedo().0;
     say!(
         "wrote {} ({}x{}); albedo (R, G, B) = ({:.4}, {:.4}, {:.4})",
@@ -62,31 +62,7 @@ pub fn run(args: &LobeArgs) -> Result<()> {
 }
 
 /// The chart's title: the model and its parameters.
-fn title(args: &LobeArgs) -> String {
-    let f = &args.fiber;
-    match f.model {
-        ModelKind::Chiang => format!(
-            "Chiang fiber lobe, light at theta = {:.3} rad: beta_m {}, beta_n {}, alpha {} deg, eta {}",
-            args.theta, f.beta_m, f.beta_n, f.alpha, f.eta
-        ),
-        ModelKind::Marschner => format!(
-            "Marschner fiber lobe, light at theta = {:.3} rad: alpha_R {} deg, beta_R {} deg, eta {}",
-            args.theta, f.alpha_r, f.beta_r, f.eta
-        ),
-        ModelKind::Sadeghi => format!(
-            "Sadeghi lobe, light at theta = {:.3} rad: alpha_R {}, beta_R {}, gamma_TT {} deg; I {}/{}/{}, I_g {}",
-            args.theta,
-            f.sadeghi_alpha_r,
-            f.sadeghi_beta_r,
-            f.sadeghi_gamma_tt,
-            f.sadeghi_intensity[0],
-            f.sadeghi_intensity[1],
-            f.sadeghi_intensity[2],
-            f.sadeghi_glint
-        ),
-        ModelKind::Deon2014 => format!(
-            "d'Eon 2014 fiber lobe, light at theta = {:.3} rad: beta {}, alpha {} deg, eta {}",
-            args.theta, f.beta_m, f.alpha, f.eta
-        ),
-    }
+fn title(theta: f64, params: &FiberParams) -> String {
+    let model = params.model;
+    format!("{} lobe, light at theta = {theta:.3} rad: {}", model.caption(), model.describe(params))
 }

@@ -22,6 +22,6 @@ use dualhair::integrators::Choice;
 /// The parser of a flag that takes one of the library's [`Choice`]s by name, with each choice's
 /// description in `--help`.
 pub fn choice<T: Choice + Clone>() -> impl TypedValueParser<Value = T> {
-    let values = T::ALL.iter().map(|&(_, name, help)| PossibleValue::new(name).help(help.trim()));
+    let values = T::choices().into_iter().map(|(_, name, help)| PossibleValue::new(name).help(help.trim()));
     PossibleValuesParser::new(values).map(|name| T::named(&name).expect("clap accepts only the choices' names"))
 }

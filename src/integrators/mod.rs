@@ -7,16 +7,16 @@
 /// choice with its name and a description, which the command line's help shows.
 pub trait Choice: Copy + PartialEq + Send + Sync + 'static {
     /// Every choice: (choice, name, description).
-    const ALL: &'static [(Self, &'static str, &'static str)];
+    fn choices() -> Vec<(Self, &'static str, &'static str)>;
 
     /// The name scene files and the command line give this choice.
     fn name(self) -> &'static str {
-        Self::ALL.iter().find(|c| c.0 == self).map_or("", |c| c.1)
+        Self::choices().into_iter().find(|c| c.0 == self).map_or("", |c| c.1)
     }
 
     /// The choice called `name`, if any.
     fn named(name: &str) -> Option<Self> {
-        Self::ALL.iter().find(|c| c.1 == name).map(|c| c.0)
+        Self::choices().into_iter().find(|c| c.1 == name).map(|c| c.0)
     }
 }
 
@@ -31,8 +31,9 @@ macro_rules! choices {
         }
 
         impl $crate::integrators::Choice for $name {
-            const ALL: &'static [(Self, &'static str, &'static str)] =
-                &[$(($name::$variant, $text, concat!($($doc),*)),)*];
+            fn choices() -> Vec<(Self, &'static str, &'static str)> {
+                vec![$(($name::$variant, $text, concat!($($doc),*)),)*]
+            }
         }
     };
 }
@@ -53,50 +54,84 @@ choices! {
     }
 }
 
-choices! {
-    /// How an integrator draws directions at a fiber, combined with light sampling by MIS.
-    #[derive(PartialOrd, Ord)]
-    pub enum Sampling {
-        /// d'Eon et al. 2013 fiber importance sampling (for dual, a mixture covering all its terms).
-        Importance = "importance",
-        /// Uniform sphere sampling (the baseline).
-        Uniform = "uniform",
-        /// Light sampling alone (`dual` only).
-        Light = "light",
-        /// The fiber's sampler with the density its source states in place of the density it has
-        /// (Marschner only: Lemein 2020, section 4.3). Biased; there to measure that.
-        Thesis = "thesis",
-        /// Hery and Ramamoorthi 2011's Box-Muller sampler as Ou et al. 2012 describe it (Sadeghi
-        /// only). Biased at grazing angles; there to measure that.
-        BoxMuller = "box_muller",
-        /// d'Eon et al. 2014's iterative sampler as its Appendix A prints it (d'Eon 2014 only),
-        /// with the model's density: slightly biased at grazing angles; there to measure that.
-        Iterative = "iterative",
+/// How an integrator draws directions at a fiber, combined with light sampling by MIS.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sampling {
+    /// d'Eon et al. 2013 fiber importance sampling (for dual, a mixture covering all its terms).
+    Importance,
+    /// Uniform sphere sampling (the baseline).
+    Uniform,
+    /// Light sampling alone (`dual` only).
+    Light,
+    /// The flawed sampler the model's source publishes ([`precompute::fiber::FlawedSampler`]),
+    /// for that model's fibers only: biased, there to measure that.
+    Flawed(ModelKind),
+}
+
+impl Choice for Sampling {
+    fn choices() -> Vec<(Self, &'static str, &'static str)> {
+        let mut all = vec![
+            (
+                Sampling::Importance,
+                "importance",
+                "d'Eon et al. 2013 fiber importance sampling (for dual, a mixture covering all its terms)",
+            ),
+            (Sampling::Uniform, "uniform", "Uniform sphere sampling (the baseline)"),
+            (Sampling::Light, "light", "Light sampling alone (`dual` only)"),
+        ];
+        let flawed = ModelKind::ALL.iter().filter_map(|&m| m.flawed().map(|f| (Sampling::Flawed(m), f.name, f.help)));
+        all.extend(flawed);
+        all
     }
 }
 
 impl Sampling {
-    /// An error unless `model` has this sampler: `thesis`, `box_muller` and `iterative` are one
-    /// model's flawed samplers each.
+    /// An error unless `model` has this sampler: each flawed sampler is one model's.
     pub fn check_model(self, model: ModelKind) -> std::result::Result<(), String> {
-        let (owner, name) = match self {
-            Sampling::Thesis => (ModelKind::Marschner, "the Marschner model's (fiber.model \"marschner\")"),
-            Sampling::BoxMuller => (ModelKind::Sadeghi, "the Sadeghi model's (fiber.model \"sadeghi\")"),
-            Sampling::Iterative => (ModelKind::Deon2014, "the d'Eon 2014 model's (fiber.model \"deon2014\")"),
-            Sampling::Importance | Sampling::Uniform | Sampling::Light => return Ok(()),
-        };
-        let value = self.name();
-        if model == owner { Ok(()) } else { Err(format!("`{value}` is {name}, not this fiber's")) }
+        match self {
+            Sampling::Flawed(owner) if owner != model => {
+                Err(format!("`{}` is {}, not this fiber's", self.name(), owner.possessive()))
+            }
+            _ => Ok(()),
+        }
     }
 
     /// The fiber sampler this sampling draws directions with.
     pub fn fiber_sampler(self) -> SamplerKind {
         match self {
-            Sampling::Thesis => SamplerKind::Thesis,
-            Sampling::BoxMuller => SamplerKind::BoxMuller,
-            Sampling::Iterative => SamplerKind::Iterative,
+            Sampling::Flawed(model) => SamplerKind::Flawed(model),
             Sampling::Importance | Sampling::Uniform | Sampling::Light => SamplerKind::Exact,
         }
+    }
+}
+
+/// In the order of [`Choice::choices`] (methods sort so in `converge`'s tables).
+impl Ord for Sampling {
+    fn cmp(&self, other: &Sampling) -> std::cmp::Ordering {
+        let at = |s: &Sampling| Sampling::choices().iter().position(|c| c.0 == *s);
+        at(self).cmp(&at(other))
+    }
+}
+
+impl PartialOrd for Sampling {
+    fn partial_cmp(&self, other: &Sampling) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// Scene files spell a sampling by its [`Choice::name`].
+impl serde::Serialize for Sampling {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Sampling {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Sampling, D::Error> {
+        static NAMES: std::sync::LazyLock<Vec<&'static str>> =
+            std::sync::LazyLock::new(|| Sampling::choices().into_iter().map(|c| c.1).collect());
+        let name = String::deserialize(d)?;
+        Sampling::named(&name).ok_or_else(|| serde::de::Error::unknown_variant(&name, NAMES.as_slice()))
     }
 }
 

@@ -535,7 +535,7 @@ where
         let importance = match self.dual.sampling {
             Sampling::Light => return None,
             Sampling::Uniform => false,
-            Sampling::Importance | Sampling::Thesis | Sampling::BoxMuller | Sampling::Iterative => true,
+            Sampling::Importance | Sampling::Flawed(_) => true,
         };
         let u = sampler.get_4d();
         // (u[1], u[2]) is the stratified pair of `Sampler::get_4d`.
@@ -558,9 +558,7 @@ where
         match self.dual.sampling {
             Sampling::Light => 0.0,
             Sampling::Uniform => 1.0 / SPHERE,
-            Sampling::Importance | Sampling::Thesis | Sampling::BoxMuller | Sampling::Iterative => {
-                self.mixture_pdf(self.fiber.pdf(wi))
-            }
+            Sampling::Importance | Sampling::Flawed(_) => self.mixture_pdf(self.fiber.pdf(wi)),
         }
     }
 

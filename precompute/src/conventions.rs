@@ -1,6 +1,6 @@
 //! The fiber frame and its angles: the one place where these conventions live.
 //!
-//! Frame (Marschner et al. 2003; pbrt-v3 hair, seed 002 section 1.1): a direction is a unit
+//! Frame (Marschner et al. 2003; pbrt-v3's hair model, Pharr 2016 section 1.1): a direction is a unit
 //! vector in local fiber coordinates with `x` along the tangent `u` (root to tip) and `y`, `z`
 //! spanning the normal plane (`v`, `w`).
 //! - `theta` in [-pi/2, pi/2] is the inclination from the normal plane; `sin(theta) = x`, and
@@ -63,7 +63,7 @@ pub fn phi(w: DVec3) -> f64 {
 ///
 /// gamma_o = phi_o - phi_n: then the mirror direction of `wo` about `n` in the normal plane has
 /// azimuth phi_o - 2 gamma_o, which is the deflection Phi(0, h) = -2 gamma_o of the R lobe
-/// (seed 002 section 1.3.3). Returns 0 where either direction has no normal-plane component.
+/// (Pharr 2016 section 1.3.3). Returns 0 where either direction has no normal-plane component.
 pub fn h_offset(wo: DVec3, n: DVec3) -> f64 {
     let (o, m) = ((wo.y, wo.z), (n.y, n.z));
     let norm = (o.0 * o.0 + o.1 * o.1).sqrt() * (m.0 * m.0 + m.1 * m.1).sqrt();

@@ -1,5 +1,5 @@
 //! Ground-truth Monte Carlo simulation of light scattered by one rough dielectric fiber, after
-//! d'Eon, Marschner and Hanika 2014 (seed 001 section 2.1): rays hit an infinite unit-radius
+//! d'Eon, Marschner and Hanika 2014 (section 2.1): rays hit an infinite unit-radius
 //! cylinder whose surface is Walter et al. 2007's rough dielectric BSDF (Beckmann, Smith), scale
 //! tilt is a shading normal, the interior absorbs (Beer-Lambert), and the exit directions are
 //! binned per lobe into lat-long images laid out exactly as [`crate::lobe`]'s.
@@ -14,7 +14,7 @@
 //! - Roughness: `FiberParams::beta_m` is used directly as Walter's Beckmann width alpha_b. Beckmann
 //!   slopes are Gaussian with variance alpha_b^2 / 2 per tangent axis, so the longitudinal tilt of
 //!   the microfacet normal has standard deviation beta / sqrt(2), and d'Eon's dx_R/dalpha = -2z
-//!   (seed 001 section 2.2) then gives the R width beta sqrt(2 (1 - h^2)) of seed 001 eq. 6.
+//!   (d'Eon et al. 2014 section 2.2) then gives the R width beta sqrt(2 (1 - h^2)) of their eq. 6.
 //!   (Section 2.2's "variance beta^2" would instead give 2 beta sqrt(1 - h^2), which disagrees
 //!   with eq. 6; the tests check eq. 6.)
 //! - Scale tilt: the shading normal is n cos(alpha) - x sin(alpha), the macro normal tilted toward
@@ -25,7 +25,7 @@
 //!   |i.m| G / (|i.n| |m.n|) below 1, signed per event since the weight can exceed 1, and in
 //!   expectation what Smith shadowing-masking removes), shading loss
 //!   (the ray met a back-facing shading normal, or the sampled direction left on the wrong side of
-//!   the macro surface: seed 001 section 2.1's "energy loss" of tilted scales), or truncated (still
+//!   the macro surface: d'Eon et al. 2014 section 2.1's "energy loss" of tilted scales), or truncated (still
 //!   inside after [`MAX_SEGMENTS`] internal segments).
 //! - Determinism: rays are cut into chunks of [`CHUNK_RAYS`]; chunk k has its own PCG generator
 //!   keyed by outputs 4k..4k+3 of a master generator seeded with the seed, and the exits are added
@@ -347,7 +347,7 @@ impl FiberSim {
                 path.end = End::Truncated;
                 return path;
             }
-            // Beer-Lambert along the whole 3D segment of length t (seed 001 section 2.1).
+            // Beer-Lambert along the whole 3D segment of length t (d'Eon et al. 2014 section 2.1).
             let transmittance = self.sigma_a.map(|s| (-s * t).exp());
             path.absorbed += path.weight * (Rgb::ONE - transmittance);
             path.weight = path.weight * transmittance;

@@ -8,10 +8,12 @@
 
 use crate::conventions::direction;
 use crate::fiber::{FiberHit, FiberModel};
-use crate::quadrature::composite;
 use crate::spectrum::Rgb;
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+/// The h quadrature rule lives with the other rules; named here too, where lobes are averaged.
+pub use crate::quadrature::h_rule;
 
 /// A lat-long image of linear RGB values, rows top to bottom.
 pub struct LobeImage {
@@ -41,17 +43,6 @@ impl LobeImage {
             })
             .sum()
     }
-}
-
-/// Quadrature nodes over h with weights summing to 1/2 * 2 = 1, i.e. the mean over h in [-1, 1].
-///
-/// Integrated in gamma = asin(h) (dh = cos(gamma) dgamma), which removes the square-root
-/// singularity of Phi(p, h) at h = +-1. The azimuthal lobes move at most ~4 radians per radian of
-/// gamma, so panels a quarter of the logistic scale `s` wide resolve them; `s` comes from the
-/// caller (the model's roughness), and the result is checked to 0.1% by the tests.
-pub fn h_rule(s: f64, refine: usize) -> Vec<(f64, f64)> {
-    let panels = ((PI / (0.25 * s)).ceil() as usize).clamp(16, 1 << 16) * refine.max(1);
-    composite(-FRAC_PI_2, FRAC_PI_2, panels, 4).into_iter().map(|(g, w)| (g.sin(), 0.5 * w * g.cos())).collect()
 }
 
 /// Renders the h-averaged lobe for a light (fixed direction) at inclination `theta`.

@@ -1,4 +1,6 @@
-//! Deterministic quadrature: composite Gauss-Legendre rules.
+//! Deterministic quadrature: composite Gauss-Legendre rules, and the rule over a fiber's width.
+
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Nodes and weights of the `n`-point Gauss-Legendre rule on [-1, 1] (Newton on P_n, f64).
 pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
@@ -38,6 +40,17 @@ pub fn composite(a: f64, b: f64, panels: usize, order: usize) -> Vec<(f64, f64)>
             rule.iter().map(move |&(x, w)| (mid + 0.5 * width * x, 0.5 * width * w))
         })
         .collect()
+}
+
+/// Quadrature nodes over h with weights summing to 1/2 * 2 = 1, i.e. the mean over h in [-1, 1].
+///
+/// Integrated in gamma = asin(h) (dh = cos(gamma) dgamma), which removes the square-root
+/// singularity of Phi(p, h) at h = +-1. The azimuthal lobes move at most ~4 radians per radian of
+/// gamma, so panels a quarter of the logistic scale `s` wide resolve them; `s` comes from the
+/// caller (the model's roughness), and the result is checked to 0.1% by the tests.
+pub fn h_rule(s: f64, refine: usize) -> Vec<(f64, f64)> {
+    let panels = ((PI / (0.25 * s)).ceil() as usize).clamp(16, 1 << 16) * refine.max(1);
+    composite(-FRAC_PI_2, FRAC_PI_2, panels, 4).into_iter().map(|(g, w)| (g.sin(), 0.5 * w * g.cos())).collect()
 }
 
 #[cfg(test)]

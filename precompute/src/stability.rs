@@ -1,6 +1,7 @@
 //! What `dualhair stability` measures of one fiber model and sampler at one point of a parameter
-//! grid: where each method fails, as numbers (issue 14). The grid is seed 001 section 2.1's
-//! (theta_i, alpha, mu_a, beta, eta), on which its rough-cylinder simulation was run.
+//! grid: where each method fails, as numbers. The grid is d'Eon, Marschner and Hanika
+//! 2014's (section 2.1: theta_i, alpha, mu_a, beta, eta), on which their rough-cylinder simulation
+//! was run.
 //!
 //! Every estimate draws h uniformly in [-1, 1] with each direction, so albedos are h-averaged as
 //! in [`crate::lobe`] and [`crate::fibersim`], and uses its own seeded generator, so results do
@@ -15,7 +16,10 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::f64::consts::{PI, TAU};
 
-/// One point of the grid, in the seed's physical parameters.
+/// The width each model's R lobe is given at a grid point (it lives with the models).
+pub use crate::fiber::r_width;
+
+/// One point of the grid, in d'Eon et al. 2014's physical parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GridPoint {
     /// Inclination of the light direction wo (radians).
@@ -29,35 +33,10 @@ pub struct GridPoint {
     pub eta: f64,
 }
 
-/// The longitudinal standard deviation (radians) of the R lobe of a rough cylinder of roughness
-/// `beta` at normal incidence: sqrt(v_R) = beta sqrt(2) (seed 001 eq. 6 at h = 0). Each model's
-/// own roughness is set so that its R lobe has this width.
-pub fn r_width(beta: f64) -> f64 {
-    std::f64::consts::SQRT_2 * beta
-}
-
-/// Chiang's beta_m whose R standard deviation (seed 002 section 1.3.1: sqrt(v) = 0.726 b +
-/// 0.812 b^2 + 3.7 b^20) is `width`, by bisection on that increasing polynomial; clamped to 1.
-fn chiang_beta(width: f64) -> f64 {
-    let sd = |b: f64| 0.726 * b + 0.812 * b * b + 3.7 * b.powi(20);
-    let (mut lo, mut hi) = (0.0, 1.0);
-    if sd(hi) <= width {
-        return hi;
-    }
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if sd(mid) < width { lo = mid } else { hi = mid }
-    }
-    hi
-}
-
 /// The parameters of `model` that stand for `point`: the same eta, absorption and tilt for every
-/// model, and roughness set so that each model's R lobe is [`r_width`] wide (Chiang: beta_m from
-/// its variance polynomial, beta_n = beta_m; Marschner: beta_R in degrees, with alpha_R =
-/// -2 alpha, its sign for a tilt toward the root; Sadeghi: half of those, its lobes being
-/// Gaussians in theta_h; d'Eon 2014: beta itself).
+/// model, and roughness set so that each model's R lobe is [`r_width`] wide (each model says how
+/// in its [`crate::fiber::Model::set_grid_roughness`]).
 pub fn params_for(model: ModelKind, point: &GridPoint) -> FiberParams {
-    let width = r_width(point.beta);
     let mut p = FiberParams {
         model,
         absorption: Absorption::SigmaA([point.mu_a; 3]),
@@ -65,22 +44,7 @@ pub fn params_for(model: ModelKind, point: &GridPoint) -> FiberParams {
         eta: point.eta,
         ..FiberParams::default()
     };
-    match model {
-        ModelKind::Chiang => {
-            p.beta_m = chiang_beta(width);
-            p.beta_n = p.beta_m;
-        }
-        ModelKind::Marschner => {
-            p.marschner.alpha_r = -2.0 * point.alpha;
-            p.marschner.beta_r = width.to_degrees();
-        }
-        ModelKind::Sadeghi => {
-            // Its Gaussians are in theta_h = (theta_i + theta_o) / 2: half the width and shift.
-            p.sadeghi.alpha_r = -point.alpha;
-            p.sadeghi.beta_r = 0.5 * width.to_degrees();
-        }
-        ModelKind::Deon2014 => p.beta_m = point.beta,
-    }
+    model.set_grid_roughness(&mut p, point.beta);
     p
 }
 
@@ -91,29 +55,43 @@ pub struct Method {
     pub sampler: SamplerKind,
 }
 
-impl Method {
-    /// Every model with every sampler it has.
-    pub const ALL: [Method; 7] = [
-        Method { model: ModelKind::Chiang, sampler: SamplerKind::Exact },
-        Method { model: ModelKind::Marschner, sampler: SamplerKind::Exact },
-        Method { model: ModelKind::Marschner, sampler: SamplerKind::Thesis },
-        Method { model: ModelKind::Sadeghi, sampler: SamplerKind::Exact },
-        Method { model: ModelKind::Sadeghi, sampler: SamplerKind::BoxMuller },
-        Method { model: ModelKind::Deon2014, sampler: SamplerKind::Exact },
-        Method { model: ModelKind::Deon2014, sampler: SamplerKind::Iterative },
-    ];
+/// Rows of the stability report: each model, and each flawed sampler once more.
+const METHODS: usize = {
+    let (mut n, mut i) = (0, 0);
+    while i < ModelKind::ALL.len() {
+        n += if ModelKind::ALL[i].flawed().is_some() { 2 } else { 1 };
+        i += 1;
+    }
+    n
+};
 
-    /// A short name, MODEL-SAMPLER: `chiang-dEon2013`, `marschner-exact`, `marschner-thesis`,
-    /// `sadeghi-cauchy`, `sadeghi-box_muller`, `deon2014-exact`, `deon2014-iterative`.
+impl Method {
+    /// Every model with every sampler it has, in the order of [`ModelKind::ALL`]: its exact
+    /// sampler, then its flawed one.
+    pub const ALL: [Method; METHODS] = {
+        let mut all = [Method { model: ModelKind::ALL[0], sampler: SamplerKind::Exact }; METHODS];
+        let (mut i, mut k) = (0, 0);
+        while i < ModelKind::ALL.len() {
+            let model = ModelKind::ALL[i];
+            all[k] = Method { model, sampler: SamplerKind::Exact };
+            k += 1;
+            if model.flawed().is_some() {
+                all[k] = Method { model, sampler: SamplerKind::Flawed(model) };
+                k += 1;
+            }
+            i += 1;
+        }
+        all
+    };
+
+    /// A short name, MODEL-SAMPLER ([`crate::fiber::Model::EXACT_LABEL`] and
+    /// [`crate::fiber::FlawedSampler::label`]): `chiang-dEon2013`, `marschner-exact`,
+    /// `marschner-thesis`, `sadeghi-cauchy`, `sadeghi-box_muller`, `deon2014-exact`,
+    /// `deon2014-iterative`.
     pub fn name(&self) -> &'static str {
-        match (self.model, self.sampler) {
-            (ModelKind::Chiang, _) => "chiang-dEon2013",
-            (ModelKind::Marschner, SamplerKind::Thesis) => "marschner-thesis",
-            (ModelKind::Marschner, _) => "marschner-exact",
-            (ModelKind::Sadeghi, SamplerKind::BoxMuller) => "sadeghi-box_muller",
-            (ModelKind::Sadeghi, _) => "sadeghi-cauchy",
-            (ModelKind::Deon2014, SamplerKind::Iterative) => "deon2014-iterative",
-            (ModelKind::Deon2014, _) => "deon2014-exact",
+        match self.model.flawed() {
+            Some(flawed) if self.sampler == SamplerKind::Flawed(self.model) => flawed.label,
+            _ => self.model.exact_label(),
         }
     }
 

@@ -1,4 +1,4 @@
-//! The precomputed dual-scattering tables (Zinke et al. 2008; design section 4; thesis ch. 3.3):
+//! The precomputed dual-scattering tables (Zinke et al. 2008; Lemein 2020 ch. 3.3):
 //! per color channel, as functions of the light's inclination theta, the forward and backward
 //! attenuations a_f, a_b, their longitudinal shifts alpha_f, alpha_b and widths beta_f, beta_b, and
 //! the local backscatter quantities A_b, Delta_b, sigma_b derived from them.
@@ -6,8 +6,8 @@
 //! Frame and units: the fiber frame of [`crate::conventions`]; every angle is in radians. The light
 //! is the fixed direction `wo = direction(theta, 0)`, the direction our models are normalized in
 //! (a model integrates to its albedo over wi for fixed wo; see [`crate::fiber`]), and wi ranges
-//! over the sphere. "Backward" is |phi_i| < pi/2, the half facing the light, "forward" the rest
-//! (design section 3). For one channel,
+//! over the sphere. "Backward" is |phi_i| < pi/2, the half facing the light, "forward" the rest.
+//! For one channel,
 //!
 //! ```text
 //! f_bar(wi) = (1/2) int_{-1}^{1} eval(wo, wi, h) dh                                  (1/sr)
@@ -40,9 +40,8 @@
 //! one row per theta.
 
 use crate::conventions::direction;
-use crate::fiber::{FiberHit, FiberModel, FiberParams, ModelKind, scale_from_beta_n, variance_from_beta_m};
-use crate::lobe::h_rule;
-use crate::quadrature::composite;
+use crate::fiber::{FiberHit, FiberModel, FiberParams};
+use crate::quadrature::{composite, h_rule};
 use crate::spectrum::Rgb;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -125,8 +124,9 @@ pub struct Resolution {
 
 impl TableSettings {
     /// Settings sized to a fiber's narrowest features: `scale` is the azimuthal logistic scale s
-    /// and `variance` the longitudinal variance v (for the Chiang model, [`scale_from_beta_n`] and
-    /// [`variance_from_beta_m`]; its narrowest longitudinal lobe, TT, has variance v/4).
+    /// and `variance` the longitudinal variance v (for the Chiang model,
+    /// [`crate::fiber::scale_from_beta_n`] and [`crate::fiber::variance_from_beta_m`]; its
+    /// narrowest longitudinal lobe, TT, has variance v/4).
     ///
     /// The integrands are logistic in phi and in gamma at scale s and about Gaussian in theta_i, so
     /// panels a few of those widths wide with 6-point rules suffice: theta_i panels 1.5 sqrt(v)
@@ -148,52 +148,22 @@ impl TableSettings {
         }
     }
 
-    /// [`TableSettings::for_roughness`] for a fiber. A Marschner fiber's narrowest features are
-    /// its TT lobe (width beta_R / 2, as Chiang's TT with v = beta_R^2) and its caustic; its f is
-    /// already integrated over h, so one h node does.
+    /// [`TableSettings::for_roughness`] for a fiber: at the azimuthal scale and longitudinal
+    /// variance of its model's narrowest features ([`crate::fiber::Model::table_features`], where
+    /// each model says what they are), with the model's h rule ([`FiberParams::h_rule`]: one node
+    /// for a far-field model, whose f is already integrated over h).
     pub fn for_fiber(params: &FiberParams) -> TableSettings {
-        match params.model {
-            ModelKind::Chiang => {
-                TableSettings::for_roughness(scale_from_beta_n(params.beta_n), variance_from_beta_m(params.beta_m))
-            }
-            ModelKind::Marschner => {
-                let beta = params.marschner.beta_r.to_radians();
-                TableSettings { h_rule: params.h_rule(8.0), ..TableSettings::for_roughness(PI / 96.0, beta * beta) }
-            }
-            ModelKind::Sadeghi => {
-                // Narrowest features: TT's longitudinal Gaussian, standard deviation 2 beta_TT =
-                // beta_R in theta_i (variance beta_R^2), and the narrower of the TT and glint
-                // azimuthal Gaussians (standard deviation gamma), resolved by phi panels 1.5 gamma
-                // wide (6 s with s = gamma / 4). Near grazing light f also has a ridge 1 / cos theta
-                // high along theta_i = -theta (cos theta_i / cos^2 theta_d), which lobe-sized panels
-                // miss: at least 32 x 16 panels. For the defaults a_f then agrees with rules twice
-                // as fine to 3e-4 at |theta| = 1.569 and to 2e-8 below 1.5 (16 x 8: 1.3e-3, 3e-6).
-                // An even count per half puts panel edges at phi = 0 and pi, the kinks of
-                // N_g(|phi| - phi_g) and of cos(phi / 2) on the circle.
-                let s = &params.sadeghi;
-                let beta = s.beta_r.to_radians();
-                let gamma = s.gamma_tt.min(s.gamma_g).to_radians();
-                let mut settings = TableSettings {
-                    h_rule: params.h_rule(8.0),
-                    ..TableSettings::for_roughness(gamma / 4.0, beta * beta)
-                };
-                settings.theta_i_panels = settings.theta_i_panels.max(32);
-                settings.phi_panels = settings.phi_panels.max(16);
-                settings.phi_panels += settings.phi_panels % 2;
-                settings
-            }
-            ModelKind::Deon2014 => {
-                // Seed 001: the narrowest azimuthal kernel is TT's Gaussian of standard deviation
-                // beta / sqrt(2), passed as the logistic scale with that standard deviation
-                // (s pi / sqrt(3)). The narrowest longitudinal lobes are TT's at normal incidence,
-                // standard deviation (eta - 1) beta, and R's toward grazing offsets,
-                // beta sqrt(2) cos(phi / 2) (eq. 6), resolved down to cos(phi / 2) = 1/4.
-                let beta = params.beta_m;
-                let scale = beta * std::f64::consts::FRAC_1_SQRT_2 * 3f64.sqrt() / PI;
-                let sd = beta * (params.eta - 1.0).min(std::f64::consts::SQRT_2 / 4.0);
-                TableSettings { h_rule: params.h_rule(8.0), ..TableSettings::for_roughness(scale, sd * sd) }
-            }
+        let features = params.model.table_features(params);
+        let mut settings = TableSettings {
+            h_rule: params.h_rule(8.0),
+            ..TableSettings::for_roughness(features.scale, features.variance)
+        };
+        settings.theta_i_panels = settings.theta_i_panels.max(features.min_theta_i_panels);
+        settings.phi_panels = settings.phi_panels.max(features.min_phi_panels);
+        if features.even_phi_panels {
+            settings.phi_panels += settings.phi_panels % 2;
         }
+        settings
     }
 
     /// What the exports record of these settings.
@@ -236,7 +206,7 @@ pub struct Backscatter {
 }
 
 impl Scattering {
-    /// A_b, Delta_b and sigma_b (Zinke et al. 2008, as given in design section 4), finite for every
+    /// A_b, Delta_b and sigma_b (Zinke et al. 2008), finite for every
     /// a_f, a_b in [0, 1] and beyond: with a_b = 0, A_b = 0, Delta_b = alpha_b + 2 alpha_f/(1 - a_f^2)
     /// and sigma_b is its limit (1 + d_b a_f^2) sqrt(2 beta_f^2 + beta_b^2); where 1 - a_f^2 falls
     /// below 1e-12 (a_f -> 1) it is taken as 1e-12.
@@ -254,9 +224,9 @@ impl Scattering {
         // (with x = a_f^2 and l = k-j-1 the exponent is i + l, and each i has i choices of j: the sum
         // is sum_{i>=1} i x^i sum_{l>=0} x^l = x/(1-x)^3). The cube is the one public code gets wrong.
         let a = a_b * af2 / g + a_b * ab2 * af2 / (g * g * g);
-        // Delta_b (Zinke et al. 2008; design section 4).
+        // Delta_b (Zinke et al. 2008).
         let delta = alpha_b * (1.0 - 2.0 * ab2 / (g * g)) + alpha_f * (2.0 * g * g + 4.0 * af2 * ab2) / (g * g * g);
-        // sigma_b (Zinke et al. 2008; design section 4), numerator and denominator divided
+        // sigma_b (Zinke et al. 2008), numerator and denominator divided
         // by a_b so that a_b = 0 gives the limit instead of 0/0.
         let (bf2, bb2) = (beta_f * beta_f, beta_b * beta_b);
         let sigma = (1.0 + d_b * af2) * ((2.0 * bf2 + bb2).sqrt() + ab2 * (2.0 * bf2 + 3.0 * bb2).sqrt())

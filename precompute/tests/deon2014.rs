@@ -1,9 +1,8 @@
-//! Checks of d'Eon, Marschner and Hanika 2014's fiber model (seed 001) and its samplers: the
-//! geometry against the seed's own compositions and closed forms, the energy against the smooth
-//! cylinder's, the exact sampler statistically, and the seed's iterative sampler measured.
+//! Checks of d'Eon, Marschner and Hanika 2014's fiber model and its samplers: the
+//! geometry against the paper's own compositions and closed forms, the energy against the smooth
+//! cylinder's, the exact sampler statistically, and the paper's iterative sampler measured.
 
-mod sphere;
-
+use crate::common::sphere::{chi_square_p_value, fresnel, mean_and_error, sphere_quadrature};
 use glam::DVec3;
 use precompute::conventions::{direction, wrap_angle};
 use precompute::fiber::{
@@ -14,7 +13,6 @@ use precompute::spectrum::Rgb;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
-use sphere::{chi_square_p_value, fresnel, mean_and_error, sphere_quadrature};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 const ETA: f64 = 1.55;
@@ -29,8 +27,8 @@ fn fiber(beta: f64, alpha: f64, sigma_a: f64) -> Deon2014 {
     Deon2014::new(&params(beta, alpha, ETA, Absorption::SigmaA([sigma_a; 3]))).unwrap()
 }
 
-// Seed 001 section 2.2 written out literally, independently of the crate: Nusselt coordinates
-// (x, y), z = sqrt(1 - x^2 - y^2) clamped at 0, compositions in the seed's notation.
+// The paper's section 2.2 written out literally, independently of the crate: Nusselt coordinates
+// (x, y), z = sqrt(1 - x^2 - y^2) clamped at 0, compositions in the paper's notation.
 
 fn q(a: f64, (x, y): (f64, f64)) -> (f64, f64) {
     let z = (1.0 - x * x - y * y).max(0.0).sqrt();
@@ -96,10 +94,10 @@ fn sphere_integrals<const N: usize>(
 
 #[test]
 fn derivatives_match_finite_differences_of_the_compositions() {
-    // The crate's exit sine and its forward-mode derivatives at alpha_k = alpha against the seed's
+    // The crate's exit sine and its forward-mode derivatives at alpha_k = alpha against the paper's
     // compositions as printed and their central differences (step 1e-5: error ~1e-10 in the
     // difference). |theta| <= 1.3 and |alpha| <= 4 degrees keep every facet met from the front,
-    // where the crate's signed z and the seed's +sqrt agree; points with total internal
+    // where the crate's signed z and the paper's +sqrt agree; points with total internal
     // reflection (no derivative) are skipped and counted.
     let d = 1e-5;
     let mut skipped = 0;
@@ -194,7 +192,7 @@ fn deflections_follow_a_traced_smooth_fiber() {
 
 #[test]
 fn untilted_derivatives_are_the_seeds() {
-    // Seed 001 section 2.2's printed derivatives at alpha = 0: dx_R/dalpha_1 = -2z,
+    // The paper's section 2.2 printed derivatives at alpha = 0: dx_R/dalpha_1 = -2z,
     // dx_TT/dalpha_{1,2} = eta z' - z, dx_TRT/dalpha_{1..3} = [eta z' - z, 2 eta z', eta z' - z],
     // z = sqrt(1 - x^2 - y^2), z' = sqrt(1 - (x^2 + y^2) / eta^2).
     let model = fiber(0.1, 0.0, 0.0);
@@ -274,7 +272,7 @@ fn widths_are_eq6_the_corrected_d_tt_and_the_norm_for_trt() {
 fn r_cone_is_minus_theta_untilted_and_the_signed_closed_form_tilted() {
     // Marschner's observation: with untilted normals R leaves at -theta_o for every h. Tilted,
     // the compositions give theta_cone_R = -asin(sin t cos 2a + sin 2a cos t cos(phi/2)) with
-    // a = our alpha; the seed's printed closed form is that with a = -alpha_seed (erratum 3:
+    // a = our alpha; the paper's printed closed form is that with a = -alpha_seed (erratum 3:
     // our alpha = -alpha_seed).
     let untilted = fiber(0.1, 0.0, 0.0);
     for theta in [-1.5, -0.7, 0.0, 0.3, 1.2, GRAZING] {
@@ -302,10 +300,10 @@ fn r_cone_is_minus_theta_untilted_and_the_signed_closed_form_tilted() {
 
 #[test]
 fn tt_reflects_internally_where_the_seed_says_for_its_tilt() {
-    // Seed section 2.4: "For tilt angles as small as 2 degrees no TT energy escapes a smooth fiber
+    // Section 2.4: "For tilt angles as small as 2 degrees no TT energy escapes a smooth fiber
     // for theta_i < -1.1" (its figures' tilt is alpha = -2 degrees). With our alpha = +2 the
     // compositions reflect TT internally for every h below theta = -1.19 (and for |h| > 0.6 at
-    // -1.1), while for positive theta only grazing offsets do: our +2 is the seed's -2. Our -2 is
+    // -1.1), while for positive theta only grazing offsets do: our +2 is the paper's -2. Our -2 is
     // the mirror image.
     let fraction = |alpha: f64, theta: f64| {
         let model = fiber(0.1, alpha, 0.0);
@@ -356,7 +354,7 @@ fn density_integrates_to_one_and_the_clear_albedo_is_the_smooth_cylinders() {
 
 #[test]
 fn smooth_limit_albedo_is_the_smooth_cylinders() {
-    // The seed's smallest roughness, beta = 0.0025, too narrow for a sphere quadrature: the
+    // The paper's smallest roughness, beta = 0.0025, too narrow for a sphere quadrature: the
     // importance estimate (exact sampler, 4 standard errors) against the smooth cylinder's energy.
     for (alpha, theta_o) in [(0.0, 0.2), (4.0, -0.9), (-4.0, 1.3)] {
         let model = fiber(0.0025, alpha, 0.0);
@@ -421,7 +419,7 @@ fn importance_and_uniform_albedo_agree() {
     }
 }
 
-/// The seed's parameter grid (section 2.1), theta_o of both signs.
+/// The paper's parameter grid (section 2.1), theta_o of both signs.
 fn seed_grid() -> Vec<(f64, f64, f64, f64, f64)> {
     let thetas = [0.0, 0.25, 0.5, 0.75, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.55];
     let alphas = [0.0, 2.0, -2.0, 4.0, -4.0];
@@ -444,8 +442,8 @@ fn seed_grid() -> Vec<(f64, f64, f64, f64, f64)> {
 
 #[test]
 fn seed_iteration_on_the_seed_grid() {
-    // The seed's loop (sample_iterated) on its whole grid, 8 draws each: iterations until theta
-    // moves by less than a thousandth of the lobe's standard deviation. The seed: "on average,
+    // The paper's loop (sample_iterated) on its whole grid, 8 draws each: iterations until theta
+    // moves by less than a thousandth of the lobe's standard deviation. The paper: "on average,
     // only 2 iterations ... and no more than 8 iterations worst case". The average holds; the worst
     // case does not: at grazing light the TT and TRT widths taken at theta_d change so fast with
     // theta that for draws in the lobes' tails the loop oscillates instead of converging.
@@ -490,7 +488,7 @@ fn seed_iteration_on_the_seed_grid() {
 #[test]
 fn seed_iteration_is_biased_where_its_density_departs_from_the_models() {
     // The albedo of brown hair by quadrature (truth) against importance estimates, both reporting
-    // the model's density: the exact sampler is unbiased (4 standard errors); the seed's loop is
+    // the model's density: the exact sampler is unbiased (4 standard errors); the paper's loop is
     // not at grazing light, where its theta_d widths and TT cone at h(phi) depart from the model
     // (the chi-square test rejects its draws).
     let brown = Absorption::Melanin { eumelanin: 1.3, pheomelanin: 0.0 };
@@ -501,13 +499,13 @@ fn seed_iteration_is_biased_where_its_density_departs_from_the_models() {
         let (a, sa) = mean_and_error(100_000, 50 + i as u64, |u| hit.sample(u).map(|s| s.weight().0[1]));
         let (b, sb) = mean_and_error(100_000, 50 + i as u64, |u| hit.sample_iterated(u).map(|(s, _)| s.weight().0[1]));
         println!(
-            "theta_o {theta_o}: truth {truth:.5}; exact {a:.5} +- {sa:.5}; seed's loop {b:.5} +- {sb:.5} ({:+.2}%, {:+.1} standard errors)",
+            "theta_o {theta_o}: truth {truth:.5}; exact {a:.5} +- {sa:.5}; paper's loop {b:.5} +- {sb:.5} ({:+.2}%, {:+.1} standard errors)",
             100.0 * (b / truth - 1.0),
             (b - truth) / sb
         );
         assert!((a - truth).abs() < 4.0 * sa + 2e-4 * truth, "exact: {a} +- {sa} vs {truth}");
         if biased {
-            assert!((b - truth) / sb > 5.0, "the seed's loop came out unbiased: {b} +- {sb} vs {truth}");
+            assert!((b - truth) / sb > 5.0, "the paper's loop came out unbiased: {b} +- {sb} vs {truth}");
         } else {
             assert!((b - truth).abs() < 4.0 * sb + 2e-4 * truth, "{b} +- {sb} vs {truth}");
         }
@@ -566,7 +564,7 @@ fn spread_keeps_the_albedo() {
 
 #[test]
 fn finite_over_the_stability_grid() {
-    // Grazing theta up to and at pi/2, roughness from the seed's 0.0025 to 1, sigma_a 0 to 16,
+    // Grazing theta up to and at pi/2, roughness from the paper's 0.0025 to 1, sigma_a 0 to 16,
     // alpha +-4 degrees, in air and water: values, densities, spread responses and samples of
     // both samplers finite and non-negative.
     let mut rng = Pcg64::seed_from_u64(9);

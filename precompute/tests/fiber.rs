@@ -1,7 +1,6 @@
-//! Physical and statistical checks of the Chiang 2016 fiber and its samplers (issue 2).
+//! Physical and statistical checks of the Chiang 2016 fiber and its samplers.
 
-mod sphere;
-
+use crate::common::sphere::{chi_square_p_value, sphere_quadrature};
 use glam::DVec3;
 use precompute::conventions::{SPHERE, direction};
 use precompute::fiber::{
@@ -13,7 +12,6 @@ use precompute::spectrum::Rgb;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
-use sphere::{chi_square_p_value, sphere_quadrature};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 const BETAS: [f64; 5] = [0.1, 0.3, 0.5, 0.7, 0.9];
@@ -146,7 +144,7 @@ fn sample_weights_are_one_without_absorption() {
 
 #[test]
 fn sampling_consistency_under_varying_radiance() {
-    // Seed 002 SamplingConsistency: both estimators of the reflected radiance under
+    // Pharr 2016's SamplingConsistency: both estimators of the reflected radiance under
     // L(w) = w_z^2 must agree within their combined statistical error, which must be small.
     let li = |w: DVec3| w.z * w.z;
     let n = 400_000;
@@ -208,7 +206,7 @@ fn pdf_and_energy_integrate_to_one() {
 
 #[test]
 fn longitudinal_normalization_down_to_tiny_variance() {
-    // int M_p cos(theta_i) dtheta_i = 1 (seed 002 eq. 1.3), including v where the naive formula
+    // int M_p cos(theta_i) dtheta_i = 1 (Pharr 2016 eq. 1.3), including v where the naive formula
     // overflows (sinh(1/v) = inf for v < 1.4e-3).
     for v in [1e-4, 1e-3, 0.02, 0.3, 5.0, 100.0] {
         for theta_o in [0.0, 0.7, -1.3, 1.55] {
@@ -387,7 +385,7 @@ fn stable_over_the_seed_001_parameter_grid() {
 
 #[test]
 fn sigma_a_from_color_matches_the_published_example() {
-    // Seed 002 figure 1.20: color (0.2, 0.8, 0.3) at beta_n = 0.8 gives sigma_a = (0.141, 0.003, 0.079).
+    // Pharr 2016 figure 1.20: color (0.2, 0.8, 0.3) at beta_n = 0.8 gives sigma_a = (0.141, 0.003, 0.079).
     let params = FiberParams { absorption: Absorption::Color([0.2, 0.8, 0.3]), beta_n: 0.8, ..Default::default() };
     let s = params.sigma_a();
     for (got, want) in s.0.iter().zip([0.141, 0.003, 0.079]) {

@@ -1,7 +1,7 @@
-//! Checks of the Monte Carlo fiber simulation (seed 001 section 2.1) against closed forms that do
-//! not come from it: the smooth cylinder's Fresnel and Beer-Lambert energies per lobe, the mirror
-//! position of the R peak under scale tilt, and d'Eon's R width (seed 001 eq. 6). Monte Carlo
-//! tolerances are stated in estimated standard errors (SE).
+//! Checks of the Monte Carlo fiber simulation (d'Eon, Marschner and Hanika 2014 section 2.1)
+//! against closed forms that do not come from it: the smooth cylinder's Fresnel and Beer-Lambert
+//! energies per lobe, the mirror position of the R peak under scale tilt, and d'Eon's R width
+//! (their eq. 6). Monte Carlo tolerances are stated in estimated standard errors (SE).
 
 use precompute::conventions::theta;
 use precompute::fiber::{Absorption, FiberParams, fresnel_dielectric};
@@ -103,7 +103,7 @@ fn r_peak_moves_to_minus_theta_i_minus_two_alpha() {
 
 #[test]
 fn r_width_follows_deon_eq6() {
-    // sqrt(v_R) = beta sqrt(2 (1 - h^2)) for small beta (seed 001 eq. 6): the standard deviation
+    // sqrt(v_R) = beta sqrt(2 (1 - h^2)) for small beta (d'Eon et al. 2014 eq. 6): the standard deviation
     // of theta_r over R exits at fixed h.
     let (beta, theta_i) = (0.01, 0.3);
     let fiber = FiberSim::new(&params(beta, 0.0, [0.0; 3]), theta_i).unwrap();

@@ -1,8 +1,7 @@
-//! Checks of the Marschner 2003 fiber (thesis form, seed 003 section 3.2.2) and its two sampler
-//! densities (issue 14).
+//! Checks of the Marschner 2003 fiber (thesis form, Lemein 2020 section 3.2.2) and its two
+//! sampler densities.
 
-mod sphere;
-
+use crate::common::sphere::{chi_square_p_value, fresnel, sphere_quadrature, weight_mean};
 use glam::DVec3;
 use precompute::conventions::{direction, phi, sin_cos_theta, wrap_angle};
 use precompute::fiber::{
@@ -11,7 +10,6 @@ use precompute::fiber::{
 use precompute::spectrum::Rgb;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use sphere::{chi_square_p_value, fresnel, sphere_quadrature, weight_mean};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 fn params(sigma_a: f64, alpha_r: f64, beta_r: f64) -> FiberParams {

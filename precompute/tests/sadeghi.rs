@@ -1,9 +1,9 @@
-//! Checks of the Sadeghi 2010 fiber (seed 000 eq. 1), ISHair's Cauchy sampler and Hery and
-//! Ramamoorthi's Box-Muller sampler as seed 000 describes them. Reference values come from
-//! quadrature of eval, closed forms written out here from the seed, and numerical integration.
+//! Checks of the Sadeghi 2010 fiber (eq. 1 of Ou, Xie, Krishnamachari and Pellacini 2012,
+//! ISHair), ISHair's Cauchy sampler and Hery and Ramamoorthi's Box-Muller sampler as ISHair
+//! describes them. Reference values come from
+//! quadrature of eval, closed forms written out here from ISHair, and numerical integration.
 
-mod sphere;
-
+use crate::common::sphere::{chi_square_p_value, sphere_quadrature, weight_mean};
 use glam::DVec3;
 use precompute::conventions::{direction, phi, sin_cos_theta, wrap_angle};
 use precompute::fiber::{
@@ -14,7 +14,6 @@ use precompute::quadrature::composite;
 use precompute::spectrum::Rgb;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use sphere::{chi_square_p_value, sphere_quadrature, weight_mean};
 use statrs::function::erf::erfc;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, SQRT_2, TAU};
 
@@ -80,21 +79,21 @@ fn smooth_attenuation(sigma_a: f64) -> [f64; 3] {
     out
 }
 
-/// The angles of the seed (theta_i, theta_h, cos^2 theta_d, phi) of wi at wo.
-struct Seed {
+/// ISHair's angles (theta_i, theta_h, cos^2 theta_d, phi) of wi at wo.
+struct Ishair {
     cos_i: f64,
     theta_h: f64,
     cos2_d: f64,
     phi: f64,
 }
 
-fn seed_angles(wo: DVec3, wi: DVec3) -> Seed {
+fn ishair_angles(wo: DVec3, wi: DVec3) -> Ishair {
     let theta = |w: DVec3| {
         let (s, c) = sin_cos_theta(w);
         s.atan2(c)
     };
     let (t_o, t_i) = (theta(wo), theta(wi));
-    Seed {
+    Ishair {
         cos_i: sin_cos_theta(wi).1,
         theta_h: 0.5 * (t_i + t_o),
         cos2_d: (0.5 * (t_o - t_i)).cos().powi(2),
@@ -118,7 +117,7 @@ fn eval_is_seed_eq_1_and_reciprocal() {
     let mut rng = Pcg64::seed_from_u64(1);
     for _ in 0..300 {
         let (wo, wi) = (random_direction(&mut rng), random_direction(&mut rng));
-        let s = seed_angles(wo, wi);
+        let s = ishair_angles(wo, wi);
         let m: Vec<f64> = (0..3).map(|l| g(beta[l], s.theta_h - alpha[l])).collect();
         let got = model.at(wo, 0.0).eval(wi);
         let back = model.at(wi, 0.0).eval(wo) * (s.cos_i / sin_cos_theta(wo).1);
@@ -317,7 +316,7 @@ fn single_lobe_weights_match_their_closed_form() {
             let wo = direction(2.4 * rng.random::<f64>() - 1.2, 1.0);
             let s = model.at(wo, 0.0).sample(rng.random()).unwrap();
             let t_o = sin_cos_theta(wo).0.asin();
-            let x = seed_angles(wo, s.wi);
+            let x = ishair_angles(wo, s.wi);
             let (big_a, big_b) = ((0.5 * t_o + FRAC_PI_4 - alpha) / beta, (0.5 * t_o - FRAC_PI_4 - alpha) / beta);
             let c = beta / (((x.theta_h - alpha).powi(2) + beta * beta) * (big_a.atan() - big_b.atan()));
             let m = (-(x.theta_h - alpha).powi(2) / (2.0 * beta * beta)).exp();
@@ -342,7 +341,7 @@ fn single_lobe_weights_match_their_closed_form() {
 
 #[test]
 fn box_muller_bias_table() {
-    // Seed 000 Appendix B: Hery and Ramamoorthi's pdf ignores the mass its clamp and flip move, so
+    // ISHair Appendix B: Hery and Ramamoorthi's pdf ignores the mass its clamp and flip move, so
     // the mean weight is not the albedo. R alone (their setting) and the whole model, against the
     // albedo by quadrature.
     let n = 400_000;
@@ -368,7 +367,7 @@ fn box_muller_bias_table() {
                 assert!((total - want).abs() < 1e-6, "reported density integrates to {total}, not {want}");
             }
             if deg == 0.0 {
-                assert!(z.abs() < 4.0, "{name} at normal incidence, where seed 000 says Box-Muller works: {z} s.e.");
+                assert!(z.abs() < 4.0, "{name} at normal incidence, where ISHair says Box-Muller works: {z} s.e.");
             }
             if deg >= 85.0 {
                 assert!(z > 20.0, "{name} at {deg} degrees: only {z} s.e. of extra energy");
@@ -392,7 +391,7 @@ fn spread_response_keeps_the_albedo_and_is_the_convolved_average() {
         );
         assert!((spread - plain).abs() < 1e-6 * plain, "theta_o {theta_o}: {plain} vs {spread}");
     }
-    // With spread: per lobe, f_s^G / f against the seed's M convolved numerically in theta_i with a
+    // With spread: per lobe, f_s^G / f against ISHair's M convolved numerically in theta_i with a
     // unit Gaussian of variance s (theta_h moves by half of theta_i's shift t), and N averaged
     // numerically over the half circle.
     let (a, b, g_tt) = ((-7.5f64).to_radians(), 7.5f64.to_radians(), 30f64.to_radians());
@@ -405,7 +404,7 @@ fn spread_response_keeps_the_albedo_and_is_the_convolved_average() {
         let mut checked = 0;
         while checked < 40 {
             let (wo, wi, s) = (random_direction(&mut rng), random_direction(&mut rng), 0.03 * rng.random::<f64>());
-            let x = seed_angles(wo, wi);
+            let x = ishair_angles(wo, wi);
             // Within 5 widths of the lobe: farther out f is a deep tail and the ratio ill-conditioned.
             if (x.theta_h - alpha).abs() > 5.0 * beta {
                 continue;

@@ -1,15 +1,13 @@
 //! Checks of the measures `dualhair stability` takes, against facts known without them: the
-//! Chiang model conserves energy and samples exactly (seed 002), the Marschner thesis density's
+//! Chiang model conserves energy and samples exactly (Pharr 2016), the Marschner thesis density's
 //! integral by plain quadrature, and a lobe image evaluated pixel by pixel.
 
-mod sphere;
-
+use crate::common::sphere::sphere_quadrature;
 use precompute::fiber::{Fiber, FiberHit, FiberModel, ModelKind, SamplerKind, scale_from_beta_n};
 use precompute::lobe::{LobeImage, h_rule, lobe_image};
 use precompute::quadrature::composite;
 use precompute::spectrum::Rgb;
 use precompute::stability::{GridPoint, Method, estimates, health, lobe_distance, lobe_histogram, params_for};
-use sphere::sphere_quadrature;
 
 fn point(theta: f64, beta: f64) -> GridPoint {
     GridPoint { theta, beta, alpha: 2.0, mu_a: 0.0, eta: 1.55 }
@@ -17,7 +15,7 @@ fn point(theta: f64, beta: f64) -> GridPoint {
 
 #[test]
 fn chiang_furnace_and_pdf_integrals_are_one() {
-    // Without absorption Chiang's albedo is exactly 1 (seed 002's white furnace) and its density
+    // Without absorption Chiang's albedo is exactly 1 (Pharr 2016's white furnace) and its density
     // integrates to 1, at every roughness, including where uniform sampling cannot see the lobe.
     let method = Method { model: ModelKind::Chiang, sampler: SamplerKind::Exact };
     for (theta, beta) in [(0.0, 0.0025), (1.0, 0.04), (std::f64::consts::FRAC_PI_2 - 1e-4, 0.3), (0.5, 0.01)] {
@@ -44,7 +42,7 @@ fn pdf_integral_of_a_wrong_density_matches_quadrature() {
     // integral (averaged over h) must equal a plain quadrature over h and the sphere.
     // The thesis's defaults (beta_R = -alpha_R = 7.5 degrees), light at theta 1.2 (integral 1.06).
     let p = GridPoint { theta: 1.2, beta: 7.5f64.to_radians() / 2f64.sqrt(), alpha: 3.75, mu_a: 0.0, eta: 1.55 };
-    let method = Method { model: ModelKind::Marschner, sampler: SamplerKind::Thesis };
+    let method = Method { model: ModelKind::Marschner, sampler: SamplerKind::Flawed(ModelKind::Marschner) };
     let (fiber, exact) = method.fibers(&p).unwrap();
     let e = estimates(&fiber, &exact, p.theta, 60_000, 11);
     let wo = precompute::conventions::direction(p.theta, 0.0);
@@ -98,11 +96,11 @@ fn lobe_distance_is_zero_for_equal_and_two_for_disjoint_images() {
 
 #[test]
 fn every_model_gets_the_grids_r_width() {
-    // Each model's roughness is set so that its R lobe has the width sqrt(2) beta of seed 001
+    // Each model's roughness is set so that its R lobe has the width sqrt(2) beta of d'Eon et al. 2014
     // eq. 6 at h = 0: measured here as the standard deviation of theta_i + theta_o over the
     // R-only lobe of a nearly opaque fiber at normal incidence, by quadrature over azimuths near
     // the mirror direction (phi = 0 is h = 0 for the far-field models, whose R narrows with h).
-    for model in [ModelKind::Chiang, ModelKind::Marschner, ModelKind::Sadeghi, ModelKind::Deon2014] {
+    for &model in ModelKind::ALL {
         let p = GridPoint { theta: 0.0, beta: 0.04, alpha: 0.0, mu_a: 1e4, eta: 1.55 };
         let fiber = Fiber::exact(&params_for(model, &p)).unwrap();
         let hit = fiber.at(precompute::conventions::direction(0.0, 0.0), 0.0);
@@ -119,4 +117,30 @@ fn every_model_gets_the_grids_r_width() {
         println!("{model:?}: R width {sd:.5} rad (target {:.5})", 0.04 * std::f64::consts::SQRT_2);
         assert!((sd / (0.04 * std::f64::consts::SQRT_2) - 1.0).abs() < 0.1, "{model:?}: {sd}");
     }
+}
+
+#[test]
+fn methods_are_every_model_with_each_of_its_samplers() {
+    // Today's models first (a model added later comes after them).
+    let names: Vec<&str> = Method::ALL.iter().map(Method::name).take(7).collect();
+    assert_eq!(
+        names,
+        [
+            "chiang-dEon2013",
+            "marschner-exact",
+            "marschner-thesis",
+            "sadeghi-cauchy",
+            "sadeghi-box_muller",
+            "deon2014-exact",
+            "deon2014-iterative"
+        ]
+    );
+    for &model in ModelKind::ALL {
+        let samplers: Vec<SamplerKind> = Method::ALL.iter().filter(|m| m.model == model).map(|m| m.sampler).collect();
+        let flawed = model.flawed().map(|_| SamplerKind::Flawed(model));
+        assert_eq!(samplers, [Some(SamplerKind::Exact), flawed].into_iter().flatten().collect::<Vec<_>>());
+    }
+    // Another model's flawed sampler is the model's exact one.
+    let odd = Method { model: ModelKind::Marschner, sampler: SamplerKind::Flawed(ModelKind::Sadeghi) };
+    assert_eq!(odd.name(), "marschner-exact");
 }

@@ -6,19 +6,19 @@ use precompute::strands::{
     Ball, Curly, GenerateError, Generator, HairError, Scalp, Straight, StrandError, Strands, Wavy, parse_hair,
     read_hair, write_hair,
 };
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use serde::Deserialize;
 use serde::de::value::{Error as DeError, MapDeserializer};
 use std::f64::consts::TAU;
 use std::path::Path;
 
-mod common;
-use common::largest_allocation;
+use crate::common::alloc::largest_allocation;
+use crate::common::damage::{each_bit_flip, each_truncation};
 
 // ---------------------------------------------------------------------------------------------
-// Hand-built files and an independent reader, written from the format description (design section
-// 7) with std only, sharing no code with the crate.
+// Hand-built files and an independent reader, written from the format's description
+// (cemyuksel.com/research/hairmodels) with std only, sharing no code with the crate.
 
 /// A .hair file: header fields and raw arrays, serialized byte by byte.
 struct RawHair {
@@ -295,19 +295,13 @@ fn parse_never_panics_on_truncated_or_corrupted_files() {
         }
         result
     };
-    for len in 0..bytes.len() {
-        assert!(check(&bytes[..len]).is_err(), "a file cut to {len} bytes parsed");
-    }
-    let mut rng = Pcg64::seed_from_u64(3);
-    for _ in 0..20_000 {
-        let mut b = bytes.clone();
-        for _ in 0..rng.random_range(1..=4) {
-            // Mostly the header, where a flip changes the meaning of everything after it.
-            let i = if rng.random::<bool>() { rng.random_range(0..24) } else { rng.random_range(0..b.len()) };
-            b[i] ^= 1 << rng.random_range(0..8);
-        }
-        let _ = check(&b);
-    }
+    each_truncation(&bytes, bytes.len(), 1, |len, b| {
+        assert!(check(b).is_err(), "a file cut to {len} bytes parsed");
+    });
+    // One to four flips each, half of them in the 24 bytes of the header's counts and flags.
+    each_bit_flip(&bytes, &mut Pcg64::seed_from_u64(3), 20_000, 1..=4, Some(24), |_, _, b| {
+        let _ = check(b);
+    });
 }
 
 #[test]

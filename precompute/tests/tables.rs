@@ -77,7 +77,7 @@ fn backscatter_matches_the_series_and_formulas_of_zinke() {
             }
         }
         a3 *= a_b.powi(3);
-        // Delta_b and sigma_b as Zinke et al. 2008 print them (design section 4).
+        // Delta_b and sigma_b as Zinke et al. 2008 print them.
         let g = 1.0 - x;
         let delta =
             alpha_b * (1.0 - 2.0 * a_b * a_b / (g * g)) + alpha_f * (2.0 * g * g + 4.0 * x * a_b * a_b) / g.powi(3);

@@ -13,8 +13,8 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-mod common;
-use common::largest_allocation;
+use crate::common::alloc::largest_allocation;
+use crate::common::damage::{each_bit_flip, each_byte_flipped, each_truncation};
 
 // ---------------------------------------------------------------------------------------------
 // Helpers
@@ -429,14 +429,12 @@ fn every_truncation_gives_an_error() {
     for (grid, what, step) in [(small(), "small", 1), (synthetic(), "synthetic", 997)] {
         let good = vdb_bytes(&grid);
         assert!(read_bytes(&dir, "whole.vdb", &good).1.is_ok());
-        let mut len = 0;
-        while len < good.len() {
-            let (path, r, largest) = read_bytes(&dir, &format!("{what}-{len}.vdb"), &good[..len]);
+        each_truncation(&good, 2000, step, |len, cut| {
+            let (path, r, largest) = read_bytes(&dir, &format!("{what}-{len}.vdb"), cut);
             let what = format!("{what} cut at {len} of {}", good.len());
             assert_clean_error(&path, r, &what);
             assert!(largest <= 4 * good.len() + (256 << 10), "{what}: allocated {largest} bytes");
-            len += if len < 2000 { 1 } else { step };
-        }
+        });
     }
 }
 
@@ -444,21 +442,16 @@ fn every_truncation_gives_an_error() {
 fn flipped_bytes_give_an_error_or_a_grid_but_never_a_panic_or_a_large_allocation() {
     let dir = test_dir("flipped");
     let good = vdb_bytes(&small());
-    let mut rng = Pcg64::seed_from_u64(11);
     let mut errors = 0;
-    for at in 0..good.len() {
-        for flip in [0xffu8, 1 << rng.random_range(0..8)] {
-            let mut b = good.clone();
-            b[at] ^= flip;
-            let (path, r, largest) = read_bytes(&dir, &format!("{at}-{flip}.vdb"), &b);
-            let bound = 4 * b.len() + (256 << 10);
-            assert!(largest <= bound, "byte {at} ^ {flip:#x}: allocated {largest} bytes for a {}-byte file", b.len());
-            if r.is_err() {
-                errors += 1;
-                assert_clean_error(&path, r, &format!("byte {at} ^ {flip:#x}"));
-            }
+    each_byte_flipped(&good, &mut Pcg64::seed_from_u64(11), |at, flip, b| {
+        let (path, r, largest) = read_bytes(&dir, &format!("{at}-{flip}.vdb"), b);
+        let bound = 4 * b.len() + (256 << 10);
+        assert!(largest <= bound, "byte {at} ^ {flip:#x}: allocated {largest} bytes for a {}-byte file", b.len());
+        if r.is_err() {
+            errors += 1;
+            assert_clean_error(&path, r, &format!("byte {at} ^ {flip:#x}"));
         }
-    }
+    });
     println!("{errors} of {} flipped files refused", 2 * good.len());
     assert!(errors > good.len() / 4, "most flips should be caught");
 }
@@ -470,13 +463,9 @@ fn flipped_bytes_in_a_blosc_file_from_real_openvdb_give_an_error_or_a_grid_but_n
     python(OPENVDB_WRITES, &[path.to_str().unwrap()]);
     let good = std::fs::read(&path).unwrap();
     assert!(read_vdb(&path, "density").is_ok());
-    let mut rng = Pcg64::seed_from_u64(13);
     let (mut errors, mut blosc_errors) = (0, 0);
-    for n in 0..1000 {
-        let mut b = good.clone();
-        let at = rng.random_range(0..b.len());
-        b[at] ^= 1 << rng.random_range(0..8);
-        let (path, r, largest) = read_bytes(&dir, &format!("{n}.vdb"), &b);
+    each_bit_flip(&good, &mut Pcg64::seed_from_u64(13), 1000, 1..=1, None, |n, at, b| {
+        let (path, r, largest) = read_bytes(&dir, &format!("{n}.vdb"), b);
         assert!(largest <= 4 * b.len() + (256 << 10), "byte {at}: allocated {largest} bytes");
         if let Err(e) = r {
             errors += 1;
@@ -485,7 +474,7 @@ fn flipped_bytes_in_a_blosc_file_from_real_openvdb_give_an_error_or_a_grid_but_n
             // Validation checks blosc headers; only c-blosc itself finds a damaged payload.
             blosc_errors += matches!(e, VdbError::Reader { .. }) as usize;
         }
-    }
+    });
     println!("{errors} of 1000 flipped files refused, {blosc_errors} by c-blosc");
 }
 

@@ -1,5 +1,5 @@
 //! Attenuation A_p: Fresnel at the cuticle and Beer-Lambert absorption inside the fiber
-//! (seed 002 section 1.3.2).
+//! (Pharr 2016 section 1.3.2).
 
 use crate::spectrum::Rgb;
 
@@ -21,8 +21,8 @@ pub fn fresnel_dielectric(cos_i: f64, eta: f64) -> f64 {
 /// theta_o (the fixed direction) and offset h, with `gamma_t` already refracted.
 ///
 /// A_0 = f, A_p = (1 - f)^2 T^p f^(p-1) and the residual sum_{p >= P_MAX} A_p
-/// = A_{P_MAX-1} f T / (1 - T f) (seed 002 section 1.3.2), with the one-segment transmittance
-/// T = exp(-sigma_a 2 cos(gamma_t) / cos(theta_t)) (sigma_a per unit radius; design section 3).
+/// = A_{P_MAX-1} f T / (1 - T f) (Pharr 2016 section 1.3.2), with the one-segment transmittance
+/// T = exp(-sigma_a 2 cos(gamma_t) / cos(theta_t)) (sigma_a per unit radius, as in pbrt-v3 and Blender Cycles).
 pub fn ap(cos_theta_o: f64, sin_theta_o: f64, eta: f64, h: f64, sigma_a: Rgb, cos_gamma_t: f64) -> [Rgb; P_MAX + 1] {
     let cos_gamma_o = (1.0 - h * h).max(0.0).sqrt();
     let f = fresnel_dielectric(cos_theta_o * cos_gamma_o, eta);

@@ -1,9 +1,9 @@
 //! Azimuthal scattering N_p: the trimmed logistic about the specular deflection Phi(p, h)
-//! (seed 002 section 1.3.3) and its exact sampler.
+//! (Pharr 2016 section 1.3.3) and its exact sampler.
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
-/// Logistic scale `s` from the user roughness `beta_n` in [0, 1] (seed 002 section 1.3.3):
+/// Logistic scale `s` from the user roughness `beta_n` in [0, 1] (Pharr 2016 section 1.3.3):
 /// s = sqrt(pi/8) (0.265 beta + 1.194 beta^2 + 5.372 beta^22).
 pub fn scale_from_beta_n(beta_n: f64) -> f64 {
     (PI / 8.0).sqrt() * (0.265 * beta_n + 1.194 * beta_n * beta_n + 5.372 * beta_n.powi(22))

@@ -1,13 +1,13 @@
-//! The energy-conserving hair BCSDF of Chiang et al. 2016 as documented in seed 002 (pbrt-v3),
+//! The energy-conserving hair BCSDF of Chiang et al. 2016 as documented in Pharr 2016 (pbrt-v3's hair model),
 //! sampled exactly after d'Eon et al. 2013.
 //!
 //! f(wo, wi) |cos theta_i| = sum_{p < P_MAX} M_p(theta_o + shift_p, theta_i) A_p N_p(phi)
-//!                         + M_{P_MAX}(theta_o, theta_i) A_{P_MAX} / (2 pi)        (seed 002 eq. 1.1)
+//!                         + M_{P_MAX}(theta_o, theta_i) A_{P_MAX} / (2 pi)        (Pharr 2016 eq. 1.1)
 //!
 //! Scale tilt: the lobe shifts shift_p = (2 alpha, -alpha, -4 alpha) for R, TT, TRT put the R peak
-//! at theta_i = -theta_o - 2 alpha, toward the root for alpha > 0 (seed 002's text, Marschner 2003,
+//! at theta_i = -theta_o - 2 alpha, toward the root for alpha > 0 (Pharr 2016's text, Marschner 2003,
 //! and Blender Cycles' Offset; pbrt-v3/v4's code rotates theta_o by -2 alpha, the opposite sign:
-//! design section 3), and are applied to the fixed direction theta_o rather than to theta_i (as
+//! see [`crate::conventions`]), and are applied to the fixed direction theta_o rather than to theta_i (as
 //! pbrt-v4 does). Each tilted M_p is then still a
 //! normalized density over wi, so the sampler is exact, f |cos| / pdf = 1 without absorption, and
 //! the model stays energy conserving at every tilt. The price is that the model is normalized in
@@ -16,6 +16,7 @@
 use super::attenuation::{P_MAX, ap};
 use super::azimuthal::{TrimmedLogistic, phi_p, scale_from_beta_n};
 use super::longitudinal::{Longitudinal, variance_from_beta_m};
+use super::model::{Model, TableFeatures, r_width};
 use super::{FiberHit, FiberModel, FiberParams, FiberSample, ParamError, SpreadHit};
 use crate::conventions::{phi, pick, sin_cos_theta, wrap_angle};
 use crate::spectrum::Rgb;
@@ -28,7 +29,7 @@ pub struct Chiang {
     sigma_a: Rgb,
     eta: f64,
     /// Longitudinal lobes with variances v_R = v, v_TT = v/4, v_TRT = v_residual = 4 v
-    /// (seed 002 section 1.3.1); [`ChiangHit`]'s spread response relies on the last two being
+    /// (Pharr 2016 section 1.3.1); [`ChiangHit`]'s spread response relies on the last two being
     /// equal.
     m: [Longitudinal; P_MAX + 1],
     /// Azimuthal distribution about each lobe's deflection.
@@ -53,6 +54,54 @@ impl Chiang {
     }
 }
 
+impl Model for Chiang {
+    const NAME: &'static str = "chiang";
+    const HELP: &'static str = "Chiang et al. 2016; --beta-m, --beta-n, --alpha";
+    const TITLE: &'static str = "Chiang";
+    const CAPTION: &'static str = "Chiang fiber";
+    const FAR_FIELD: bool = false;
+    const EXACT_LABEL: &'static str = "chiang-dEon2013";
+
+    fn build(params: &FiberParams, _flawed: bool) -> Result<Chiang, ParamError> {
+        Chiang::new(params)
+    }
+
+    /// Panels `width` logistic scales wide ([`crate::quadrature::h_rule`]).
+    fn h_rule(params: &FiberParams, width: f64) -> Vec<(f64, f64)> {
+        crate::quadrature::h_rule(width * scale_from_beta_n(params.beta_n), 1)
+    }
+
+    /// The logistic scale of beta_n and the longitudinal variance of beta_m.
+    fn table_features(params: &FiberParams) -> TableFeatures {
+        TableFeatures::new(scale_from_beta_n(params.beta_n), variance_from_beta_m(params.beta_m))
+    }
+
+    /// beta_m from the R lobe's variance polynomial, beta_n = beta_m.
+    fn set_grid_roughness(params: &mut FiberParams, beta: f64) {
+        params.beta_m = beta_m_of_width(r_width(beta));
+        params.beta_n = params.beta_m;
+    }
+
+    fn describe(params: &FiberParams) -> String {
+        format!("beta_m {}, beta_n {}, alpha {} deg, eta {}", params.beta_m, params.beta_n, params.alpha, params.eta)
+    }
+}
+
+/// The beta_m whose R standard deviation (Pharr 2016 section 1.3.1: sqrt(v) = 0.726 b +
+/// 0.812 b^2 + 3.7 b^20) is `width`, by bisection on that increasing polynomial; clamped to 1.
+fn beta_m_of_width(width: f64) -> f64 {
+    let sd = |b: f64| 0.726 * b + 0.812 * b * b + 3.7 * b.powi(20);
+    let (mut lo, mut hi) = (0.0, 1.0);
+    if sd(hi) <= width {
+        return hi;
+    }
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if sd(mid) < width { lo = mid } else { hi = mid }
+    }
+    hi
+}
+
 /// A [`Chiang`] fiber at one hit: everything that depends only on the fixed direction wo and the
 /// offset h (Fresnel, absorption, refraction, the tilted inclinations, the lobes' deflections).
 pub struct ChiangHit<'a> {
@@ -65,7 +114,7 @@ pub struct ChiangHit<'a> {
     /// Azimuthal deflection Phi(p, h) of each lobe p < P_MAX.
     deflection: [f64; P_MAX],
     ap: [Rgb; P_MAX + 1],
-    /// Lobe-selection probabilities: A_p by luminance, normalized (seed 002 section 1.4.2).
+    /// Lobe-selection probabilities: A_p by luminance, normalized (Pharr 2016 section 1.4.2).
     weights: [f64; P_MAX + 1],
 }
 
@@ -128,7 +177,7 @@ impl FiberModel for Chiang {
         let (sin_o, cos_o) = sin_cos_theta(wo);
         let h = h.clamp(-1.0, 1.0);
         // Snell in the normal plane with the modified index eta' = sqrt(eta^2 - sin^2)/cos
-        // (Bravais; seed 002 1.3.2), written so that cos theta_o = 0 needs no division by it.
+        // (Bravais; Pharr 2016 section 1.3.2), written so that cos theta_o = 0 needs no division by it.
         let sin_gamma_t = h * cos_o / (self.eta * self.eta - sin_o * sin_o).sqrt();
         let cos_gamma_t = (1.0 - sin_gamma_t * sin_gamma_t).max(0.0).sqrt();
         let (gamma_o, gamma_t) = (h.asin(), sin_gamma_t.asin());

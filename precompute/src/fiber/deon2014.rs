@@ -1,11 +1,11 @@
-//! d'Eon, Marschner and Hanika 2014's fiber model with non-separable lobes (seed 001), sampled
-//! exactly; the seed's iterative sampler (its section 3 and Appendix A) is kept to be measured.
+//! d'Eon, Marschner and Hanika 2014's fiber model with non-separable lobes, sampled
+//! exactly; the paper's iterative sampler (its section 3 and Appendix A) is kept to be measured.
 //!
-//! Notation. Seed 001 calls the fixed (incident) direction theta_i and the scattered one theta_r
+//! Notation. The paper calls the fixed (incident) direction theta_i and the scattered one theta_r
 //! (theta_o in its text); here, as in the whole crate, `wo` = (theta_o, phi_o) is fixed and
-//! `wi` = (theta_i, phi_i) is integrated or sampled: the seed's theta_i is our theta_o and its
+//! `wi` = (theta_i, phi_i) is integrated or sampled: the paper's theta_i is our theta_o and its
 //! theta_r our theta_i. phi = phi_i - phi_o, theta_d = (theta_o - theta_i) / 2, h = sin gamma.
-//! Parameters (seed section 2.1, per wavelength): beta = `beta_m` (Beckmann roughness, radians),
+//! Parameters (section 2.1, per wavelength): beta = `beta_m` (Beckmann roughness, radians),
 //! alpha = `alpha` (degrees; sign below), eta = `eta`, mu_a = `sigma_a()` per unit radius.
 //!
 //! # The model
@@ -20,37 +20,37 @@
 //!   cone inclination c, a density of theta_i over cos theta_i dtheta_i. Eq. 5's 1/cos theta turns
 //!   it into f; the projected value multiplies that by cos theta_i again.
 //! - c_p(h) = asin x_p: the exit sine of the path through normals tilted by alpha at every
-//!   interface, from seed section 2.2's compositions of the rotation Q in Nusselt coordinates
+//!   interface, from section 2.2's compositions of the rotation Q in Nusselt coordinates
 //!   (`trace`): R[a1], T'[a2] P T[a1], T'[a3] P R'[a2] P T[a1] applied to (sin theta_o, h cos
 //!   theta_o). Total internal reflection on the way out (TT and TRT at grazing angles and tilt):
-//!   the seed's rule (section 2.4): square-root inputs clamped to 0, and the pole
+//!   the paper's rule (section 2.4): square-root inputs clamped to 0, and the pole
 //!   c = -sign(theta_o) pi/2 where |x_p| > 1.
 //! - v_p(h) = (beta^2 / 2) sum_k (dx_p / dalpha_k)^2 / cos^2 theta: the linearized variance of the
 //!   exit inclination (section 2.2), each tilt alpha_k independent with variance beta^2 / 2, the
 //!   per-axis slope variance of a Beckmann surface of roughness beta (what eq. 6 implies; see the
 //!   errata), with the derivatives by the chain rule through Q's derivative matrix at
-//!   alpha_k = 0, as the seed's widths are (eq. 6 for R, D_TT "estimated at alpha = 0", D_TRT at
+//!   alpha_k = 0, as the paper's widths are (eq. 6 for R, D_TT "estimated at alpha = 0", D_TRT at
 //!   h = 0 and alpha = 0). At alpha_k = alpha they would collapse the lobe where a tilted cone
 //!   passes the pole and diverge next to total internal reflection. Clamped to [`V_MIN`,
 //!   `V_MAX`]: R's width vanishes at grazing offsets (eq. 6), TT's diverges at grazing light.
 //! - R: h(phi) = -sin(phi / 2), the single root of Phi_R = -2 gamma, and no azimuthal roughness
-//!   (section 2.3): the lobe is A_R M cos(phi/2) / 4 in closed form, exactly the seed's.
+//!   (section 2.3): the lobe is A_R M cos(phi/2) / 4 in closed form, exactly the paper's.
 //! - TT: K a wrapped Gaussian of variance beta^2 / 2 (section 2.4). Each h carries its own cone
-//!   and width: where the seed evaluates them at the root h(phi) of the (noisy) phi, we keep the h
+//!   and width: where the paper evaluates them at the root h(phi) of the (noisy) phi, we keep the h
 //!   the light entered at. The two agree as the azimuthal width goes to 0; this one is a normalized
 //!   density for every beta and is defined where Phi_TT has no root (|phi| < 2 asin(1/eta')).
-//! - TRT: separable as the seed makes it (section 2.5): cone and width at h = 0; K a wrapped
+//! - TRT: separable as the paper makes it (section 2.5): cone and width at h = 0; K a wrapped
 //!   Gaussian of variance 2 beta^2.
 //! - Phi_p(h; theta_d) = 2 p gamma_t - 2 gamma + p pi (eq. 3), sin gamma_t = h / eta', with the
 //!   Bravais index eta' = sqrt(eta^2 - sin^2 theta_d) / cos theta_d at the theta_d of the
-//!   integrated direction: the seed's coupling of N_p to theta_i, which curves the TRT caustic
+//!   integrated direction: the paper's coupling of N_p to theta_i, which curves the TRT caustic
 //!   with theta (its Fig. 6b).
-//! - A_p(h) = F, (1 - F)^2 T, (1 - F)^2 F T^2 (seed 002 section 1.3.2; d'Eon 2011) at the fixed
+//! - A_p(h) = F, (1 - F)^2 T, (1 - F)^2 F T^2 (Pharr 2016 section 1.3.2; d'Eon 2011) at the fixed
 //!   direction: F at cos theta_o cos gamma, T = exp(-mu_a 2 cos gamma_t / cos theta_t) with
-//!   gamma_t at theta_o. Paths past TRT are not modeled (the seed's model has these three lobes):
+//!   gamma_t at theta_o. Paths past TRT are not modeled (the paper's model has these three lobes):
 //!   without absorption the albedo is the smooth cylinder's R + TT + TRT energy, below 1.
 //!
-//! With A_p and v_p taken at theta_o (the seed takes v_TT and v_TRT at theta_d "for reciprocity",
+//! With A_p and v_p taken at theta_o (the paper takes v_TT and v_TRT at theta_d "for reciprocity",
 //! which its M breaks anyway), every M integrates to 1 over theta_i and every K to 1 over phi, so
 //! lobe p integrates over the sphere to exactly (1/2) int A_p dh: no normalization is lost to the
 //! non-separability. The model is normalized in wi for fixed wo, not reciprocal.
@@ -64,13 +64,13 @@
 //!
 //! The compositions as printed (R[a] = Q(a, -Q(-a, .))) put the R cone at -theta_o - 2 alpha_k:
 //! our sign ([`FiberParams::alpha`]: positive alpha puts R toward the root, at -theta_o - 2
-//! alpha), so alpha_k = alpha here. The seed's closed form for theta_cone_R (section 2.3) has the
+//! alpha), so alpha_k = alpha here. The paper's closed form for theta_cone_R (section 2.3) has the
 //! opposite sign (its R peak is at -theta_o + 2 alpha at phi = 0), which is also the sign of
-//! Marschner's alpha_R and of the seed's figures (alpha = -2 degrees for human hair in air, R toward
+//! Marschner's alpha_R and of the paper's figures (alpha = -2 degrees for human hair in air, R toward
 //! the root; its TIR remark, no TT below theta = -1.1 at a 2 degree tilt, holds for our +2): the
-//! seed's alpha = -2 degrees is our alpha = +2 degrees.
+//! paper's alpha = -2 degrees is our alpha = +2 degrees.
 //!
-//! # Errata in seed 001 (1 to 5 checked in tests/deon2014.rs)
+//! # Errata in the paper (1 to 5 checked in tests/deon2014.rs)
 //!
 //! 1. Eq. 3: eta' = sqrt(eta^2 - sin(theta_d)) / cos(theta_d) should read sin^2(theta_d) (the
 //!    deflections then match a 3D vector-Snell trace through a smooth cylinder).
@@ -92,7 +92,7 @@
 //!    above and unused) and passes the function v_TT instead of the variance v just computed.
 //! 7. Appendix A's Jacobian prints dP_M/dphi in the lower right; it is dP_N/dphi = N.
 //! 8. Section 3: "no more than 8 iterations worst case": the loop as printed leaves 3% of the
-//!    draws on the seed's own grid unconverged after 8 (see [`Deon2014Hit::sample_iterated`]).
+//!    draws on the paper's own grid unconverged after 8 (see [`Deon2014Hit::sample_iterated`]).
 //!
 //! The derivatives at alpha = 0 printed in section 2.2 ([-2z], [eta z' - z, eta z' - z],
 //! [eta z' - z, 2 eta z', eta z' - z]) are right.
@@ -102,11 +102,11 @@
 //! [`FiberHit::sample`] draws h uniformly, the lobe with probability proportional to the luminance
 //! of A_p(h), theta_i from M(.; c_p(h), v_p(h)) exactly (d'Eon 2013) and then phi =
 //! Phi_p(h; theta_d(theta_i)) + a Gaussian offset of the lobe's azimuthal width. That is the
-//! seed's loop (choose every random number, then sample phi from theta and theta from phi) run to
+//! paper's loop (choose every random number, then sample phi from theta and theta from phi) run to
 //! its fixed point: with the cone and width taken at the drawn h and at theta_o, the theta update
 //! no longer depends on phi, so the fixed point is reached after one pass, and the density drawn
 //! is the model's (with the h-selection weights in place of A): `eval_pdf` integrates exactly
-//! that, by the same quadrature as the value. The seed needs several passes only because it
+//! that, by the same quadrature as the value. The paper needs several passes only because it
 //! re-derives the TT cone from the noisy phi and takes v_TT, v_TRT at theta_d; that literal loop
 //! is [`Deon2014Hit::sample_iterated`], whose density has Appendix A's residual and is not known
 //! in closed form.
@@ -114,7 +114,8 @@
 use super::attenuation::{P_MAX, ap};
 use super::azimuthal::phi_p;
 use super::longitudinal::Longitudinal;
-use super::{FiberHit, FiberModel, FiberParams, FiberSample, ParamError, SpreadHit};
+use super::model::{FlawedSampler, Model, TableFeatures};
+use super::{FiberHit, FiberModel, FiberParams, FiberSample, ModelKind, ParamError, SamplerKind, SpreadHit};
 use crate::conventions::{phi, pick, sin_cos_theta, wrap_angle};
 use crate::quadrature::gauss_legendre;
 use crate::spectrum::Rgb;
@@ -145,7 +146,7 @@ const ORDER: usize = 6;
 /// point's).
 const TOLERANCE: f64 = 1e-3;
 
-/// One interface event of seed 001 section 2.2, in Nusselt coordinates (x along the fiber axis).
+/// One interface event of the paper's section 2.2, in Nusselt coordinates (x along the fiber axis).
 #[derive(Clone, Copy, Debug)]
 enum Event {
     /// Q(sign alpha_k, .): rotation about the y axis into or out of the frame of tilted normal k.
@@ -156,7 +157,7 @@ enum Event {
     Refract(f64),
 }
 
-/// The three paths as sequences of events, in order of application (seed section 2.2):
+/// The three paths as sequences of events, in order of application (section 2.2):
 /// R[a] = Q(a, -Q(-a, .)), R'[a] = Q(-a, -Q(a, .)), T[a] = Q(-a, -Q(-a, .) / eta),
 /// T'[a] = Q(a, -eta Q(a, .)), P = -1; R = R[a1], TT = T'[a2] P T[a1],
 /// TRT = T'[a3] P R'[a2] P T[a1].
@@ -182,17 +183,17 @@ struct Exit {
     /// Exit cosine sqrt(y^2 + z^2) (of a unit vector unless `tir`).
     cos: f64,
     dx: [f64; 4],
-    /// A refraction out of the fiber met total internal reflection (clamped as the seed does).
+    /// A refraction out of the fiber met total internal reflection (clamped as the paper does).
     tir: bool,
 }
 
 /// Follows a path's events from the incident direction (sin theta, h cos theta) at h = sin gamma
 /// through normals tilted by the angle with sine and cosine `tilt`, in forward-mode derivatives:
-/// seed section 2.2's chain rule through Q's derivative matrix
+/// section 2.2's chain rule through Q's derivative matrix
 /// [-z cos a - x sin a, cos a + (x/z) sin a, (y/z) sin a], written with the normal component z
 /// carried along (dz = -(x dx + y dy) / z) instead of recomputed as +sqrt(1 - x^2 - y^2). That
 /// keeps its precision where the path grazes the axis, and its sign where light meets a tilted
-/// facet from behind (grazing light, |theta| > pi/2 - |alpha| about): there the seed's positive
+/// facet from behind (grazing light, |theta| > pi/2 - |alpha| about): there the paper's positive
 /// root folds the reflected path back onto the pole (x_R = -1 however the light comes in), the
 /// signed z is the exact reflection about the tilted normal. Elsewhere the two are the same.
 fn trace(path: &[Event], tilt: (f64, f64), sin_t: f64, cos_t: f64, gamma: f64) -> Exit {
@@ -386,12 +387,12 @@ pub struct Deon2014 {
     kernel_sigma: [f64; LOBES],
     paths: [Vec<Event>; LOBES],
     rule: Vec<(f64, f64)>,
-    /// Whether [`FiberHit::sample`] runs the seed's literal loop ([`Deon2014Hit::sample_iterated`]).
+    /// Whether [`FiberHit::sample`] runs the paper's literal loop ([`Deon2014Hit::sample_iterated`]).
     iterated: bool,
 }
 
 impl Deon2014 {
-    /// The seed's bound on its sampler's iterations (section 3), [`Deon2014Hit::sample_iterated`]'s.
+    /// The paper's bound on its sampler's iterations (section 3), [`Deon2014Hit::sample_iterated`]'s.
     pub const MAX_ITERATIONS: usize = 8;
 
     /// The model with its exact sampler.
@@ -399,7 +400,7 @@ impl Deon2014 {
         Deon2014::with_sampler(params, false)
     }
 
-    /// The model drawing with the seed's literal loop when `iterated` (biased: it reports the
+    /// The model drawing with the paper's literal loop when `iterated` (biased: it reports the
     /// model's density, which is not quite the loop's), else exactly.
     pub fn with_sampler(params: &FiberParams, iterated: bool) -> Result<Deon2014, ParamError> {
         params.validate()?;
@@ -444,7 +445,7 @@ impl Deon2014 {
         let v = self.variance(p, sin_t, cos_t, gamma);
         let (sin, cos) = match (e.tir, e.x.abs() < 1.0) {
             (false, _) => (e.x, e.cos),
-            // Seed section 2.4: asin x_p while |x_p| <= 1, the pole -sign(theta) pi/2 beyond.
+            // Section 2.4: asin x_p while |x_p| <= 1, the pole -sign(theta) pi/2 beyond.
             (true, true) => (e.x, (1.0 - e.x * e.x).sqrt()),
             (true, false) => (-sin_t.signum(), 0.0),
         };
@@ -454,11 +455,11 @@ impl Deon2014 {
 
     /// v_p = (beta^2 / 2) sum_k (dx_p/dalpha_k)^2 / cos^2 theta for light at inclination theta
     /// (sine, cosine) and offset sin gamma, within [`V_MIN`, `V_MAX`]. The derivatives are taken
-    /// about the untilted path, as the seed's eq. 6, D_TT and D_TRT are: about the tilted one the
+    /// about the untilted path, as the paper's eq. 6, D_TT and D_TRT are: about the tilted one the
     /// inclination's derivative vanishes where the cone passes the pole (the exit moves in azimuth
     /// there, collapsing the lobe to a spike) and diverges at the onset of total internal
     /// reflection; the untilted path meets neither. There [`trace`]'s chain rule reduces to the
-    /// seed's printed derivatives (section 2.2, tested): dx_R = [-2z],
+    /// paper's printed derivatives (section 2.2, tested): dx_R = [-2z],
     /// dx_TT = [eta z' - z, eta z' - z], dx_TRT = [eta z' - z, 2 eta z', eta z' - z], with
     /// z = cos theta cos gamma, eta z' = sqrt(eta^2 - sin^2 theta - sin^2 gamma cos^2 theta), and
     /// the exit at -theta.
@@ -481,6 +482,53 @@ impl Deon2014 {
     fn inv_bravais(&self, sin_d: f64, cos_d: f64) -> f64 {
         cos_d / (self.eta * self.eta - sin_d * sin_d).sqrt()
     }
+}
+
+impl Model for Deon2014 {
+    const NAME: &'static str = "deon2014";
+    const HELP: &'static str = "d'Eon et al. 2014; --beta-m as its roughness beta, --alpha";
+    const TITLE: &'static str = "d'Eon 2014";
+    const CAPTION: &'static str = "d'Eon 2014 fiber";
+    const FAR_FIELD: bool = true;
+    const EXACT_LABEL: &'static str = "deon2014-exact";
+    const FLAWED: Option<FlawedSampler> = Some(FlawedSampler {
+        name: "iterative",
+        label: "deon2014-iterative",
+        help: "d'Eon et al. 2014's iterative sampler as its Appendix A prints it, with the model's density: \
+               slightly biased at grazing angles",
+    });
+
+    /// With the paper's literal loop when `flawed` ([`Deon2014::with_sampler`]).
+    fn build(params: &FiberParams, flawed: bool) -> Result<Deon2014, ParamError> {
+        Deon2014::with_sampler(params, flawed)
+    }
+
+    /// The narrowest azimuthal kernel is TT's Gaussian of standard deviation beta / sqrt(2),
+    /// passed as the logistic scale with that standard deviation (s pi / sqrt(3)). The narrowest
+    /// longitudinal lobes are TT's at normal incidence, standard deviation (eta - 1) beta, and R's
+    /// toward grazing offsets, beta sqrt(2) cos(phi / 2) (eq. 6), resolved down to
+    /// cos(phi / 2) = 1/4.
+    fn table_features(params: &FiberParams) -> TableFeatures {
+        let beta = params.beta_m;
+        let scale = beta * FRAC_1_SQRT_2 * 3f64.sqrt() / PI;
+        let sd = beta * (params.eta - 1.0).min(SQRT_2 / 4.0);
+        TableFeatures::new(scale, sd * sd)
+    }
+
+    /// beta itself: `beta_m` is the model's Beckmann roughness.
+    fn set_grid_roughness(params: &mut FiberParams, beta: f64) {
+        params.beta_m = beta;
+    }
+
+    fn describe(params: &FiberParams) -> String {
+        format!("beta {}, alpha {} deg, eta {}", params.beta_m, params.alpha, params.eta)
+    }
+}
+
+impl SamplerKind {
+    /// The d'Eon 2014 model's flawed sampler (a name kept for the renderer).
+    #[allow(non_upper_case_globals)]
+    pub const Iterative: SamplerKind = SamplerKind::Flawed(ModelKind::Deon2014);
 }
 
 /// A [`Deon2014`] fiber at one hit: what depends on the fixed direction wo.
@@ -625,7 +673,7 @@ impl Deon2014Hit<'_> {
 
     /// The projected value and the sampler's density at `d`.
     fn value_pdf(&self, d: &Incoming) -> (Rgb, f64) {
-        // R (seed section 2.3): the root gamma = -phi / 2, density cos(gamma) / 4 in phi.
+        // R (section 2.3): the root gamma = -phi / 2, density cos(gamma) / 4 in phi.
         let gamma = -0.5 * d.dphi;
         let (a, w) = self.attenuation(gamma);
         let m = self.cone(0, gamma).m(d.sin_i, d.cos_i, 0.0) * 0.25 * gamma.cos();
@@ -707,15 +755,15 @@ impl Deon2014Hit<'_> {
         (pdf > 0.0 && pdf.is_finite()).then_some(FiberSample { wi, value, pdf })
     }
 
-    /// The seed's iterative sampler as section 3 prints it (with theta_cone passed to sampleM),
+    /// The paper's iterative sampler as section 3 prints it (with theta_cone passed to sampleM),
     /// for measurement: the same random numbers as [`FiberHit::sample`], theta started at
     /// -theta_o, then phi from theta and theta from phi until theta moves by less than a
     /// thousandth of the lobe's standard deviation, at most [`Deon2014::MAX_ITERATIONS`] times.
     /// Unlike the model it takes TT's cone at the root h of the noisy phi (the nearer end of
     /// [-1, 1] where there is none) and the TT and TRT widths at theta_d. Returns the sample with
-    /// the model's density, which is what the seed claims it draws (Appendix A: "the fiber
+    /// the model's density, which is what the paper claims it draws (Appendix A: "the fiber
     /// function plus a very small residual"), and the number of iterations after which theta had
-    /// stopped moving (`MAX_ITERATIONS + 1`: not within the bound). On the seed's grid that takes
+    /// stopped moving (`MAX_ITERATIONS + 1`: not within the bound). On the paper's grid that takes
     /// 1.9 iterations on average, but 3% of draws (tails of wide lobes at grazing light, where the
     /// widths at theta_d change fastest) oscillate instead of converging, and at grazing light its
     /// estimates are biased by about 1% (tests/deon2014.rs).

@@ -1,5 +1,5 @@
-//! Longitudinal scattering M_p of d'Eon et al. 2011 (seed 002 eq. 1.3) and its exact sampler
-//! (d'Eon et al. 2013; design section 5).
+//! Longitudinal scattering M_p of d'Eon et al. 2011 (Pharr 2016 eq. 1.3) and its exact sampler
+//! (d'Eon et al. 2013).
 //!
 //! M_p(theta_o, theta_i) = exp(-sin theta_o sin theta_i / v) I0(cos theta_o cos theta_i / v)
 //!                         / (2 v sinh(1/v)),
@@ -9,7 +9,7 @@
 
 use crate::special::i0e_parts;
 
-/// Longitudinal variance `v` from the user roughness `beta_m` in [0, 1] (seed 002 section 1.3.1,
+/// Longitudinal variance `v` from the user roughness `beta_m` in [0, 1] (Pharr 2016 section 1.3.1,
 /// pbrt-v3 = Cycles): v = (0.726 beta + 0.812 beta^2 + 3.7 beta^20)^2.
 pub fn variance_from_beta_m(beta_m: f64) -> f64 {
     (0.726 * beta_m + 0.812 * beta_m * beta_m + 3.7 * beta_m.powi(20)).powi(2)
@@ -48,7 +48,7 @@ impl Longitudinal {
     ///
     /// With a = cos_o cos_i / v and b = sin_o sin_i / v:
     /// M_p = e^-|a| I0(a) * exp(|a| - b - 1/v) / (v (1 - e^(-2/v))), where |a| - b - 1/v <= 0,
-    /// so the exponential is at most 1. This replaces pbrt's two-branch formula (seed 002 `Mp`)
+    /// so the exponential is at most 1. This replaces pbrt's two-branch formula (Pharr 2016's `Mp`)
     /// with one that neither overflows for tiny v nor loses precision for large v.
     pub fn eval(&self, cos_i: f64, sin_i: f64, cos_o: f64, sin_o: f64) -> f64 {
         let exponent = ((cos_i * cos_o).abs() - sin_i * sin_o - 1.0) / self.v;

@@ -1,5 +1,5 @@
-//! Marschner et al. 2003 as the thesis uses it (seed 003 section 3.2.2, eqs. 3.1-3.12), with the
-//! thesis's d'Eon-style sampler (seed 003 section 4.3).
+//! Marschner et al. 2003 as Lemein 2020's MSc thesis uses it (section 3.2.2, eqs. 3.1-3.12), with
+//! the thesis's d'Eon-style sampler (Lemein 2020 section 4.3).
 //!
 //! f(wo, wi) = sum_{p = R, TT, TRT} M_p N_p(phi) / cos^2 theta_d                       (eq. 3.1)
 //!
@@ -28,7 +28,7 @@
 //! cos^2 theta_d is not a normalization): its albedo over theta is measured, not assumed. It is
 //! reciprocal: f(wo, wi) = f(wi, wo).
 //!
-//! Sampling (seed 003 section 4.3): h uniform in [-1, 1]; a lobe with probability proportional to
+//! Sampling (Lemein 2020 section 4.3): h uniform in [-1, 1]; a lobe with probability proportional to
 //! the luminance of A_spec(p, h) (eqs. 4.2-4.4, at theta_o); theta_i from d'Eon 2013's cone about
 //! theta_i = alpha_p - theta_o with variance beta_p^2 (eqs. 4.9-4.12); phi_i = phi_o + Phi(p, h) +
 //! beta_p z with z standard normal (eq. 4.14), eta' taken at theta_o. Two densities go with it:
@@ -38,8 +38,9 @@
 
 use super::attenuation::fresnel_dielectric;
 use super::longitudinal::Longitudinal;
+use super::model::{FlawedSampler, Model, TableFeatures, r_width};
 use super::params::check;
-use super::{FiberHit, FiberModel, FiberParams, FiberSample, ParamError, SpreadHit};
+use super::{FiberHit, FiberModel, FiberParams, FiberSample, ModelKind, ParamError, SamplerKind, SpreadHit};
 use crate::conventions::{phi, pick, sin_cos_theta, wrap_angle};
 use crate::spectrum::Rgb;
 use glam::DVec3;
@@ -48,7 +49,7 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::OnceLock;
 
 /// Parameters of the Marschner model beyond those every model shares (absorption, eta). Angles in
-/// degrees. Defaults: the thesis's (alpha_R = -7.5, beta_R = 7.5; seed 003 Table 3.1) and the
+/// degrees. Defaults: the thesis's (alpha_R = -7.5, beta_R = 7.5; Lemein 2020 Table 3.1) and the
 /// middle of Marschner 2003's Table 1 ranges for the caustic.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -327,6 +328,53 @@ impl Plane {
     }
 }
 
+impl Model for Marschner {
+    const NAME: &'static str = "marschner";
+    const HELP: &'static str = "Marschner et al. 2003 as Lemein 2020 uses it; --alpha-r, --beta-r";
+    const TITLE: &'static str = "Marschner";
+    const CAPTION: &'static str = "Marschner fiber";
+    const FAR_FIELD: bool = true;
+    const EXACT_LABEL: &'static str = "marschner-exact";
+    const FLAWED: Option<FlawedSampler> = Some(FlawedSampler {
+        name: "thesis",
+        label: "marschner-thesis",
+        help: "the sampler with the density Lemein 2020 (section 4.3) states in place of the density it has: biased",
+    });
+
+    /// With the thesis's density ([`MarschnerPdf::Thesis`]) when `flawed`.
+    fn build(params: &FiberParams, flawed: bool) -> Result<Marschner, ParamError> {
+        Marschner::new(params, if flawed { MarschnerPdf::Thesis } else { MarschnerPdf::Exact })
+    }
+
+    fn validate_own(params: &FiberParams) -> Result<(), ParamError> {
+        params.marschner.validate()
+    }
+
+    /// The narrowest features are the TT lobe (width beta_R / 2, as Chiang's TT with
+    /// v = beta_R^2) and the caustic.
+    fn table_features(params: &FiberParams) -> TableFeatures {
+        let beta = params.marschner.beta_r.to_radians();
+        TableFeatures::new(PI / 96.0, beta * beta)
+    }
+
+    /// beta_R in degrees, with alpha_R = -2 alpha, its sign for a tilt toward the root.
+    fn set_grid_roughness(params: &mut FiberParams, beta: f64) {
+        params.marschner.alpha_r = -2.0 * params.alpha;
+        params.marschner.beta_r = r_width(beta).to_degrees();
+    }
+
+    fn describe(params: &FiberParams) -> String {
+        let m = &params.marschner;
+        format!("alpha_R {} deg, beta_R {} deg, eta {}", m.alpha_r, m.beta_r, params.eta)
+    }
+}
+
+impl SamplerKind {
+    /// The Marschner model's flawed sampler (a name kept for the renderer).
+    #[allow(non_upper_case_globals)]
+    pub const Thesis: SamplerKind = SamplerKind::Flawed(ModelKind::Marschner);
+}
+
 /// The Marschner fiber at one hit. The model itself does not depend on h (its N_p integrates over
 /// it), so this holds only what depends on wo.
 pub struct MarschnerHit<'a> {
@@ -384,14 +432,14 @@ impl MarschnerHit<'_> {
     }
 
     /// Selection weights of the lobes at h = sin gamma on `plane`: A_spec by luminance, normalized
-    /// (seed 003 eqs. 4.2-4.7).
+    /// (Lemein 2020 eqs. 4.2-4.7).
     fn weights(plane: &Plane, gamma: f64) -> [f64; LOBES] {
         let y: [f64; LOBES] = std::array::from_fn(|p| plane.attenuation(p, gamma).luminance());
         let total: f64 = y.iter().sum();
         if total > 0.0 { y.map(|y| y / total) } else { [1.0, 0.0, 0.0] }
     }
 
-    /// The thesis's stated density (seed 003 section 4.3, "Finding the PDF"): its eq. 4.1 (M_p,
+    /// The thesis's stated density (Lemein 2020 section 4.3, "Finding the PDF"): its eq. 4.1 (M_p,
     /// the sampled cone, times N_p) with each A replaced by its selection weight: the roots of
     /// the given direction weighted w_p(h) / |2 dPhi/dh|. It leaves out the Gaussian azimuth of
     /// eq. 4.14 that the sampler adds, and finds the roots at theta_d where the sampler deflects

@@ -8,21 +8,25 @@
 
 mod attenuation;
 mod azimuthal;
-mod chiang;
-mod deon2014;
 mod longitudinal;
-mod marschner;
+mod model;
 mod params;
-mod sadeghi;
 
 pub use attenuation::{P_MAX, fresnel_dielectric};
 pub use azimuthal::scale_from_beta_n;
-pub use chiang::{Chiang, ChiangHit};
-pub use deon2014::{Deon2014, Deon2014Hit};
 pub use longitudinal::{Longitudinal, mp, variance_from_beta_m};
-pub use marschner::{Marschner, MarschnerHit, MarschnerParams, MarschnerPdf};
-pub use params::{Absorption, FiberParams, ModelKind, ParamError};
-pub use sadeghi::{Sadeghi, SadeghiHit, SadeghiParams, SadeghiSampler};
+pub use model::{FlawedSampler, Model, TableFeatures, r_width};
+pub use params::{Absorption, FiberParams, ParamError};
+
+// The fiber models: each `Variant => module::Type` is the model `Type` in `fiber/module.rs`,
+// which implements [`Model`]. This list makes [`ModelKind`], [`Fiber`] and [`FiberAt`]; adding a
+// model is its file and its line here.
+model::models! {
+    Chiang => chiang::Chiang,
+    Marschner => marschner::Marschner,
+    Sadeghi => sadeghi::Sadeghi,
+    Deon2014 => deon2014::Deon2014,
+}
 
 use crate::conventions::SPHERE;
 use crate::spectrum::Rgb;
@@ -86,7 +90,7 @@ pub trait FiberHit: Send + Sync {
 
 /// What dual scattering needs of a fiber model beyond single scattering: its response f_s^G to
 /// light that reaches the fiber after passing forward through other fibers (Zinke et al. 2008
-/// section 4; thesis eq. 3.19; design section 4).
+/// section 4; Lemein 2020 eq. 3.19).
 ///
 /// That light arrives spread about the direction `wi` it entered the hair from: longitudinally by
 /// an extra variance `spread` of the inclination (radians^2, per channel), azimuthally uniformly
@@ -136,112 +140,77 @@ impl<H: FiberHit> FiberHit for UniformHit<H> {
 }
 
 /// Which of a model's samplers to draw with: its exact one, or the flawed one its source
-/// publishes (kept to measure the flaw). A model without the named flawed sampler uses its exact
-/// one; scene validation rejects such a pairing before it gets here.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// publishes ([`Model::FLAWED`], kept to measure the flaw). A model drawing with another model's
+/// flawed sampler uses its exact one; scene validation rejects such a pairing before it gets here.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum SamplerKind {
     /// The sampler whose reported density is the density it draws with.
     Exact,
-    /// Marschner: the thesis's sampler with its stated density (seed 003 section 4.3).
-    Thesis,
-    /// Sadeghi: Hery and Ramamoorthi 2011's Box-Muller sampler as seed 000 describes it.
-    BoxMuller,
-    /// d'Eon 2014: the seed's iterative sampler as printed (Appendix A), with the model's density.
-    Iterative,
+    /// The flawed sampler of the model named.
+    Flawed(ModelKind),
 }
 
-/// The fiber model a [`FiberParams`] names: what commands and integrators hold, so that none of
-/// them asks which model it is.
-pub enum Fiber {
-    Chiang(Chiang),
-    Marschner(Marschner),
-    Sadeghi(Sadeghi),
-    Deon2014(Deon2014),
+impl SamplerKind {
+    /// The flawed sampler the CLI and scene files spell `name` ("thesis", "box_muller", ...), of
+    /// whichever model has it; `None` if no model has a flawed sampler of that name.
+    pub fn flawed(name: &str) -> Option<SamplerKind> {
+        ModelKind::with_flawed_sampler(name).map(SamplerKind::Flawed)
+    }
 }
 
-/// A [`Fiber`] at one hit.
-pub enum FiberAt<'a> {
-    Chiang(ChiangHit<'a>),
-    Marschner(MarschnerHit<'a>),
-    Sadeghi(SadeghiHit<'a>),
-    Deon2014(Deon2014Hit<'a>),
-}
-
-/// Calls `$f` on whichever hit a [`FiberAt`] holds.
-macro_rules! each_hit {
-    ($hit:expr, $h:ident => $f:expr) => {
-        match $hit {
-            FiberAt::Chiang($h) => $f,
-            FiberAt::Marschner($h) => $f,
-            FiberAt::Sadeghi($h) => $f,
-            FiberAt::Deon2014($h) => $f,
+impl ModelKind {
+    /// The name of the model's flawed sampler as the CLI and scene files spell it, if it has one.
+    pub const fn flawed_sampler(self) -> Option<&'static str> {
+        match self.flawed() {
+            Some(f) => Some(f.name),
+            None => None,
         }
-    };
+    }
+
+    /// The model whose flawed sampler the CLI and scene files spell `name`.
+    pub fn with_flawed_sampler(name: &str) -> Option<ModelKind> {
+        ModelKind::ALL.iter().copied().find(|m| m.flawed_sampler() == Some(name))
+    }
+
+    /// The model named in messages with how scene files name it: `the Marschner model's
+    /// (fiber.model "marschner")`.
+    pub fn possessive(self) -> String {
+        format!("the {} model's (fiber.model \"{}\")", self.title(), self.name())
+    }
+
+    /// Every model with its one-line help, for `--model`: `chiang (...), marschner (...) or
+    /// deon2014 (...)`.
+    pub fn help_all() -> String {
+        let each: Vec<String> = ModelKind::ALL.iter().map(|m| format!("{} ({})", m.name(), m.help())).collect();
+        match each.split_last() {
+            Some((last, [])) => last.clone(),
+            Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+            None => String::new(),
+        }
+    }
 }
 
 impl Fiber {
-    /// The model of `params` drawing with `sampler`.
-    pub fn new(params: &FiberParams, sampler: SamplerKind) -> Result<Fiber, ParamError> {
-        Ok(match params.model {
-            ModelKind::Chiang => Fiber::Chiang(Chiang::new(params)?),
-            ModelKind::Marschner => {
-                let pdf = if sampler == SamplerKind::Thesis { MarschnerPdf::Thesis } else { MarschnerPdf::Exact };
-                Fiber::Marschner(Marschner::new(params, pdf)?)
-            }
-            ModelKind::Sadeghi => {
-                let s =
-                    if sampler == SamplerKind::BoxMuller { SadeghiSampler::BoxMuller } else { SadeghiSampler::Cauchy };
-                Fiber::Sadeghi(Sadeghi::new(params, s)?)
-            }
-            ModelKind::Deon2014 => Fiber::Deon2014(Deon2014::with_sampler(params, sampler == SamplerKind::Iterative)?),
-        })
-    }
-
-    /// Whether the model is far-field: f does not depend on the hit's offset h (every model but
-    /// Chiang's), so one hit serves every h.
-    pub fn far_field(&self) -> bool {
-        !matches!(self, Fiber::Chiang(_))
-    }
-
     /// The model of `params` with its exact sampler.
     pub fn exact(params: &FiberParams) -> Result<Fiber, ParamError> {
         Fiber::new(params, SamplerKind::Exact)
     }
 }
 
-impl FiberModel for Fiber {
-    type Hit<'a> = FiberAt<'a>;
-
-    fn at(&self, wo: DVec3, h: f64) -> FiberAt<'_> {
-        match self {
-            Fiber::Chiang(m) => FiberAt::Chiang(m.at(wo, h)),
-            Fiber::Marschner(m) => FiberAt::Marschner(m.at(wo, h)),
-            Fiber::Sadeghi(m) => FiberAt::Sadeghi(m.at(wo, h)),
-            Fiber::Deon2014(m) => FiberAt::Deon2014(m.at(wo, h)),
-        }
+impl Default for ModelKind {
+    /// The first model listed: Chiang et al. 2016's.
+    fn default() -> Self {
+        ModelKind::ALL[0]
     }
 }
 
-impl FiberHit for FiberAt<'_> {
-    fn eval(&self, wi: DVec3) -> Rgb {
-        each_hit!(self, h => h.eval(wi))
-    }
+impl std::str::FromStr for ModelKind {
+    type Err = String;
 
-    fn sample(&self, u: [f64; 4]) -> Option<FiberSample> {
-        each_hit!(self, h => h.sample(u))
-    }
-
-    fn eval_pdf(&self, wi: DVec3) -> (Rgb, f64) {
-        each_hit!(self, h => h.eval_pdf(wi))
-    }
-}
-
-impl SpreadHit for FiberAt<'_> {
-    fn eval_spread(&self, wi: DVec3, spread: Rgb) -> Rgb {
-        each_hit!(self, h => h.eval_spread(wi, spread))
-    }
-
-    fn eval_both(&self, wi: DVec3, spread: Rgb) -> (Rgb, Rgb) {
-        each_hit!(self, h => h.eval_both(wi, spread))
+    fn from_str(s: &str) -> Result<ModelKind, String> {
+        ModelKind::ALL.iter().copied().find(|m| m.name() == s).ok_or_else(|| {
+            let names: Vec<&str> = ModelKind::ALL.iter().map(|m| m.name()).collect();
+            format!("`{s}`: no such fiber model ({})", names.join(", "))
+        })
     }
 }

@@ -1,20 +1,20 @@
 //! The fiber material description shared by the CLI, scene files and the tables: roughness,
 //! scale tilt, index of refraction, and absorption given in one of three ways.
 
-use super::azimuthal::scale_from_beta_n;
+use super::ModelKind;
 use super::marschner::MarschnerParams;
 use super::sadeghi::SadeghiParams;
-use crate::lobe::h_rule;
 use crate::spectrum::Rgb;
 use serde::{Deserialize, Serialize};
 
-/// Absorption of the fiber interior, per unit fiber radius (design section 3).
+/// Absorption of the fiber interior, per unit fiber radius, as pbrt-v3 (Pharr 2016 section 1.3.2)
+/// and Blender Cycles give it.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum Absorption {
     /// sigma_a per color channel, given directly.
     SigmaA([f64; 3]),
-    /// Pigment concentrations (seed 002 section 1.5; d'Eon et al. 2011): about 8 for black,
+    /// Pigment concentrations (Pharr 2016 section 1.5; d'Eon et al. 2011): about 8 for black,
     /// 1.3 for brown and 0.3 for blond eumelanin.
     Melanin {
         #[serde(default)]
@@ -23,40 +23,8 @@ pub enum Absorption {
         pheomelanin: f64,
     },
     /// A desired diffuse-looking hair color in (0, 1] per channel, mapped through the fit of
-    /// Chiang et al. 2016 (seed 002 section 1.5, `SigmaAFromReflectance`).
+    /// Chiang et al. 2016 (Pharr 2016 section 1.5, `SigmaAFromReflectance`).
     Color([f64; 3]),
-}
-
-/// The single-fiber scattering model.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ModelKind {
-    /// Chiang et al. 2016 (seed 002): energy conserving, d'Eon 2013 sampling.
-    #[default]
-    Chiang,
-    /// Marschner et al. 2003 as the thesis uses it (seed 003 section 3.2.2): not energy
-    /// conserving; parameters in `marschner`.
-    Marschner,
-    /// Sadeghi et al. 2010's artist-friendly model as seed 000 gives it (ISHair eq. 1): not
-    /// energy conserving; parameters in `sadeghi`.
-    Sadeghi,
-    /// d'Eon, Marschner, Hanika 2014's non-separable lobes (seed 001): `beta_m` is its roughness
-    /// beta, with `alpha`, `eta` and the absorption.
-    Deon2014,
-}
-
-impl std::str::FromStr for ModelKind {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<ModelKind, String> {
-        match s {
-            "chiang" => Ok(ModelKind::Chiang),
-            "marschner" => Ok(ModelKind::Marschner),
-            "sadeghi" => Ok(ModelKind::Sadeghi),
-            "deon2014" => Ok(ModelKind::Deon2014),
-            _ => Err(format!("`{s}`: no such fiber model (chiang, marschner, sadeghi, deon2014)")),
-        }
-    }
 }
 
 /// Parameters of a single fiber. Defaults: the Chiang model, brown hair (eumelanin 1.3),
@@ -109,7 +77,7 @@ pub(super) fn check(field: &'static str, value: f64, ok: bool, problem: &'static
     if value.is_finite() && ok { Ok(()) } else { Err(ParamError { field, problem, value }) }
 }
 
-/// Per-unit-concentration absorption of the two melanins (pbrt; seed 002 section 1.5).
+/// Per-unit-concentration absorption of the two melanins (pbrt; Pharr 2016 section 1.5).
 const EUMELANIN_SIGMA_A: [f64; 3] = [0.419, 0.697, 1.37];
 const PHEOMELANIN_SIGMA_A: [f64; 3] = [0.187, 0.4, 1.05];
 
@@ -120,8 +88,9 @@ impl FiberParams {
         check("beta_n", self.beta_n, self.beta_n > 0.0 && self.beta_n <= 1.0, "must be in (0, 1]")?;
         check("alpha", self.alpha, self.alpha.abs() <= 20.0, "must be within +-20 degrees")?;
         check("eta", self.eta, self.eta > 1.0 && self.eta <= 4.0, "must be in (1, 4]")?;
-        self.marschner.validate()?;
-        self.sadeghi.validate()?;
+        for model in ModelKind::ALL {
+            model.validate_own(self)?;
+        }
         match self.absorption {
             Absorption::SigmaA(s) => {
                 for v in s {
@@ -141,14 +110,17 @@ impl FiberParams {
         Ok(())
     }
 
-    /// Quadrature nodes over h for averaging the model's f over the fiber's width ([`h_rule`]),
-    /// panels `width` logistic scales wide for the Chiang model; one node for the far-field
-    /// models (Marschner, Sadeghi, d'Eon 2014), whose f does not depend on h.
+    /// Quadrature nodes over h for averaging the model's f over the fiber's width
+    /// ([`super::Model::h_rule`]): for the Chiang model [`crate::quadrature::h_rule`] with panels
+    /// `width` logistic scales wide; one node for the far-field models, whose f does not depend
+    /// on h.
     pub fn h_rule(&self, width: f64) -> Vec<(f64, f64)> {
-        match self.model {
-            ModelKind::Chiang => h_rule(width * scale_from_beta_n(self.beta_n), 1),
-            ModelKind::Marschner | ModelKind::Sadeghi | ModelKind::Deon2014 => vec![(0.0, 1.0)],
-        }
+        self.model.h_rule(self, width)
+    }
+
+    /// The model's parameters, for a caption ([`super::Model::describe`]).
+    pub fn describe(&self) -> String {
+        self.model.describe(self)
     }
 
     /// The absorption coefficient per unit radius this description stands for.
@@ -159,7 +131,7 @@ impl FiberParams {
                 Rgb(EUMELANIN_SIGMA_A) * eumelanin + Rgb(PHEOMELANIN_SIGMA_A) * pheomelanin
             }
             Absorption::Color(c) => {
-                // Chiang et al. 2016 fit (seed 002 section 1.5): sigma_a = (ln c / poly(beta_n))^2.
+                // Chiang et al. 2016 fit (Pharr 2016 section 1.5): sigma_a = (ln c / poly(beta_n))^2.
                 let b = self.beta_n;
                 let poly =
                     5.969 - 0.215 * b + 2.532 * b.powi(2) - 10.73 * b.powi(3) + 5.574 * b.powi(4) + 0.245 * b.powi(5);

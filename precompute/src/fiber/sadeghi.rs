@@ -1,13 +1,13 @@
-//! Sadeghi et al. 2010's artist-friendly hair model as seed 000 gives it (ISHair eq. 1), with
-//! ISHair's Cauchy sampler (seed 000 section 3.2) and Hery and Ramamoorthi 2011's Box-Muller
-//! sampler as seed 000's Appendices A and B describe it.
+//! Sadeghi et al. 2010's artist-friendly hair model as Ou, Xie, Krishnamachari and Pellacini 2012
+//! (ISHair) give it (eq. 1), with ISHair's Cauchy sampler (section 3.2) and Hery and Ramamoorthi
+//! 2011's Box-Muller sampler as ISHair's Appendices A and B describe it.
 //!
 //! f(wo, wi) = [I_R M_R N_R + I_TT M_TT N_TT + I_TRT M_TRT N_TRT-g + I_TRT M_TRT I_g N_g]
-//!             / cos^2 theta_d                                               (seed 000 eq. 1)
+//!             / cos^2 theta_d                                               (ISHair eq. 1)
 //!
 //! - Angles: theta_h = (theta_i + theta_o) / 2, theta_d = (theta_o - theta_i) / 2, and the
-//!   relative azimuth phi = phi_i - phi_o wrapped to [-pi, pi] (the seed's phi_r - phi_i; every
-//!   lobe is even in phi, so the sign does not matter). `wo` plays the seed's omega_r.
+//!   relative azimuth phi = phi_i - phi_o wrapped to [-pi, pi] (ISHair's phi_r - phi_i; every
+//!   lobe is even in phi, so the sign does not matter). `wo` plays ISHair's omega_r.
 //! - M_p = g(beta_p^2, alpha_p, theta_h) = exp(-(theta_h - alpha_p)^2 / (2 beta_p^2)), an
 //!   unnormalized Gaussian in theta_h (section 3.1): a Gaussian of standard deviation 2 beta_p
 //!   in theta_i, peaked at theta_i = 2 alpha_p - theta_o. alpha_p keeps Marschner 2003's sign:
@@ -15,19 +15,19 @@
 //!   As in Marschner 2003 (section 4.3, Table 1), alpha_TT = -alpha_R / 2, alpha_TRT =
 //!   -3 alpha_R / 2, beta_TT = beta_R / 2, beta_TRT = 2 beta_R.
 //! - N_R = N_TRT-g = cos(phi / 2), N_TT = g(gamma_TT^2, pi - |phi|), N_g = g(gamma_g^2, |phi| -
-//!   phi_g) (section 3.1; pi - |phi| is the seed's pi - phi for its phi in [0, 2 pi]).
+//!   phi_g) (section 3.1; pi - |phi| is ISHair's pi - phi for its phi in [0, 2 pi]).
 //! - eval returns f |cos theta_i|. cos^2 theta_d = (1 + cos(theta_o - theta_i)) / 2 is floored
 //!   at 1e-24: it vanishes only at theta_i = -theta_o = +-pi/2, where f truly diverges (erratum 1).
 //!
-//! Colors (not in the seed, whose intensities are an artist's colors): the intensities follow
+//! Colors (not in ISHair, whose intensities are an artist's colors): the intensities follow
 //! the fiber's absorption. I_p = i_p A_p / (L_p Z_p) with i_p the user's scalar, A_p the smooth
 //! fiber's attenuation at normal incidence averaged over the offset h (A_R = F, A_TT = (1 - F)^2 T,
-//! A_TRT = (1 - F)^2 F T^2 with T = exp(-2 sigma_a cos gamma_t): seed 002 section 1.3.2 at
+//! A_TRT = (1 - F)^2 F T^2 with T = exp(-2 sigma_a cos gamma_t): Pharr 2016 section 1.3.2 at
 //! theta = 0), and L_p Z_p the lobe's integral over (theta_i, phi) on the whole line: L_p =
 //! 2 sqrt(2 pi) beta_p, Z_R = Z_TRT = 4, Z_TT = sqrt(2 pi) gamma_TT. So at i_p = 1 and normal
 //! incidence each lobe scatters about what a smooth fiber's R, TT and TRT do (brown and blond
 //! scenes keep their colors when they switch model), and widening a lobe keeps its energy. The
-//! glint keeps the seed's form, I_g relative to TRT-g's peak: N_g's peak I_g against N_TRT-g's 1.
+//! glint keeps ISHair's form, I_g relative to TRT-g's peak: N_g's peak I_g against N_TRT-g's 1.
 //!
 //! Defaults: alpha_R = -7.5, beta_R = 7.5 degrees (the middle of Marschner 2003 Table 1, as
 //! [`super::MarschnerParams`]); gamma_TT = 30 degrees (a smooth fiber's TT deflection 2 gamma_t -
@@ -39,7 +39,7 @@
 //! The model does not conserve energy (unnormalized Gaussians cut at the ends of theta_i, and 1 /
 //! cos^2 theta_d): its albedo is measured (tests/sadeghi.rs), not assumed.
 //!
-//! Samplers. Both pick a lobe with probability proportional to the seed's energy estimates
+//! Samplers. Both pick a lobe with probability proportional to ISHair's energy estimates
 //! (section 3.2.3; luminance of the colored intensities): E_R = 4 sqrt(2 pi) beta_R I_R, E_TT =
 //! 2 pi beta_TT gamma_TT I_TT, E_TRT-g = 4 sqrt(2 pi) beta_TRT I_TRT, E_g = 4 pi beta_TRT gamma_g
 //! I_TRT I_g. Both report the mixture density sum_p P(p) p_p(wi) per unit solid angle, with
@@ -53,7 +53,7 @@
 //!   drawn apart; cos(phi / 2) exactly, phi = 2 asin(2 u - 1). Exact: the reported density is the
 //!   density of the drawn directions.
 //! - [`SadeghiSampler::BoxMuller`] (Appendices A, B): theta_h = alpha_p + beta_p z from a
-//!   Box-Muller normal pair, clamped to [-theta_max, theta_max] with theta_max = pi/2 (the seed
+//!   Box-Muller normal pair, clamped to [-theta_max, theta_max] with theta_max = pi/2 (ISHair
 //!   gives no value; pi/2 is the largest clamp after which one flip always lands in range), then
 //!   theta_i = 2 theta_h - theta_o flipped about the pole (+-pi - theta_i) when past +-pi/2.
 //!   Hery and Ramamoorthi sample only R; here every Gaussian is drawn the same way (TT's and the
@@ -67,7 +67,7 @@
 //! over theta is kept; each N_p replaced by its mean over the half circle within pi/2 of phi, in
 //! closed form (erf for the Gaussians, on the circle).
 //!
-//! Errata in seed 000, each checked as stated (tests/sadeghi.rs and the unit tests below):
+//! Errata in ISHair, each checked as stated (tests/sadeghi.rs and the unit tests below):
 //! 1. Footnote 1: 1 / cos^2 theta_d is singular where theta_r and theta_i approach opposite poles
 //!    (theta_d -> +-pi/2), not the same one, and cos theta_i / cos^2 theta_d is not smooth there:
 //!    along theta_i = -theta_r it equals 1 / cos theta_r, unbounded (integrable over wi).
@@ -105,8 +105,9 @@
 //!      sampler never goes: that part of the density is not the sampler's.
 
 use super::attenuation::ap;
+use super::model::{FlawedSampler, Model, TableFeatures, r_width};
 use super::params::check;
-use super::{FiberHit, FiberModel, FiberParams, FiberSample, ParamError, SpreadHit};
+use super::{FiberHit, FiberModel, FiberParams, FiberSample, ModelKind, ParamError, SamplerKind, SpreadHit};
 use crate::conventions::{direction, phi, pick, sin_cos_theta, wrap_angle};
 use crate::quadrature::composite;
 use crate::spectrum::Rgb;
@@ -134,7 +135,7 @@ pub struct SadeghiParams {
     pub i_r: f64,
     pub i_tt: f64,
     pub i_trt: f64,
-    /// Glint peak relative to TRT-g's (seed 000's I_g).
+    /// Glint peak relative to TRT-g's (ISHair's I_g).
     pub i_g: f64,
 }
 
@@ -180,13 +181,13 @@ impl SadeghiParams {
 /// The sampler a [`Sadeghi`] fiber draws with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SadeghiSampler {
-    /// ISHair's Cauchy-lobe inverse-CDF sampler (seed 000 section 3.2): exact.
+    /// ISHair's Cauchy-lobe inverse-CDF sampler (Ou et al. 2012 section 3.2): exact.
     Cauchy,
-    /// Hery and Ramamoorthi 2011's Box-Muller Gaussian sampler as seed 000 describes it: biased.
+    /// Hery and Ramamoorthi 2011's Box-Muller Gaussian sampler as Ou et al. 2012 describe it: biased.
     BoxMuller,
 }
 
-/// Lobes in the order of seed 000 eq. 1.
+/// Lobes in the order of ISHair's eq. 1.
 const R: usize = 0;
 const TT: usize = 1;
 const TRT: usize = 2;
@@ -206,8 +207,8 @@ pub struct Sadeghi {
     gamma_tt: f64,
     gamma_g: f64,
     phi_g: f64,
-    /// ISHair's azimuthal Cauchys: TT's in x = pi - |phi| over [-pi, pi] (centered at 0, as the
-    /// seed's phi - pi over [0, 2 pi]), the glint's in |phi| over [0, pi].
+    /// ISHair's azimuthal Cauchys: TT's in x = pi - |phi| over [-pi, pi] (centered at 0, as ISHair's
+    /// phi - pi over [0, 2 pi]), the glint's in |phi| over [0, pi].
     tt_cauchy: Cauchy,
     glint_cauchy: Cauchy,
     /// Lobe-selection probabilities from the energy estimates.
@@ -231,7 +232,7 @@ impl Sadeghi {
         let lobe: [Rgb; 3] =
             std::array::from_fn(|p| attenuation[p] * (user[p] / (2.0 * root_2pi * beta[p] * azimuthal[p])));
         let intensity = [lobe[R], lobe[TT], lobe[TRT], lobe[TRT] * s.i_g];
-        // Seed 000 section 3.2.3 (with luminance for the colored intensities).
+        // ISHair section 3.2.3 (with luminance for the colored intensities).
         let energy = [
             4.0 * root_2pi * beta[R] * lobe[R].luminance(),
             TAU * beta[TT] * gamma_tt * lobe[TT].luminance(),
@@ -254,7 +255,7 @@ impl Sadeghi {
         })
     }
 
-    /// N_p at the relative azimuth phi in [-pi, pi] (seed 000 section 3.1).
+    /// N_p at the relative azimuth phi in [-pi, pi] (ISHair section 3.1).
     fn n(&self, dphi: f64) -> [f64; LOBES] {
         let half_cos = (0.5 * dphi).cos().max(0.0);
         [half_cos, gauss(self.gamma_tt, tt_offset(dphi)), half_cos, gauss(self.gamma_g, dphi.abs() - self.phi_g)]
@@ -272,6 +273,71 @@ impl Sadeghi {
         });
         [half_cos, tt, half_cos, glint].map(|m| m / PI)
     }
+}
+
+impl Model for Sadeghi {
+    const NAME: &'static str = "sadeghi";
+    const HELP: &'static str = "Sadeghi et al. 2010 as Ou et al. 2012 give it; --sadeghi-*";
+    const TITLE: &'static str = "Sadeghi";
+    const CAPTION: &'static str = "Sadeghi";
+    const FAR_FIELD: bool = true;
+    const EXACT_LABEL: &'static str = "sadeghi-cauchy";
+    const FLAWED: Option<FlawedSampler> = Some(FlawedSampler {
+        name: "box_muller",
+        label: "sadeghi-box_muller",
+        help: "Hery and Ramamoorthi 2011's Box-Muller sampler as Ou et al. 2012 (Appendices A, B) describe it: \
+               biased at grazing angles",
+    });
+
+    /// With the Box-Muller sampler ([`SadeghiSampler::BoxMuller`]) when `flawed`.
+    fn build(params: &FiberParams, flawed: bool) -> Result<Sadeghi, ParamError> {
+        Sadeghi::new(params, if flawed { SadeghiSampler::BoxMuller } else { SadeghiSampler::Cauchy })
+    }
+
+    fn validate_own(params: &FiberParams) -> Result<(), ParamError> {
+        params.sadeghi.validate()
+    }
+
+    /// Narrowest features: TT's longitudinal Gaussian, standard deviation 2 beta_TT = beta_R in
+    /// theta_i (variance beta_R^2), and the narrower of the TT and glint azimuthal Gaussians
+    /// (standard deviation gamma), resolved by phi panels 1.5 gamma wide (6 s with s = gamma / 4).
+    /// Near grazing light f also has a ridge 1 / cos theta high along theta_i = -theta
+    /// (cos theta_i / cos^2 theta_d), which lobe-sized panels miss: at least 32 x 16 panels. For
+    /// the defaults a_f then agrees with rules twice as fine to 3e-4 at |theta| = 1.569 and to 2e-8
+    /// below 1.5 (16 x 8: 1.3e-3, 3e-6). An even count per half puts panel edges at phi = 0 and
+    /// pi, the kinks of N_g(|phi| - phi_g) and of cos(phi / 2) on the circle.
+    fn table_features(params: &FiberParams) -> TableFeatures {
+        let s = &params.sadeghi;
+        let beta = s.beta_r.to_radians();
+        let gamma = s.gamma_tt.min(s.gamma_g).to_radians();
+        TableFeatures {
+            min_theta_i_panels: 32,
+            min_phi_panels: 16,
+            even_phi_panels: true,
+            ..TableFeatures::new(gamma / 4.0, beta * beta)
+        }
+    }
+
+    /// Half of Marschner's: its Gaussians are in theta_h = (theta_i + theta_o) / 2, so half the
+    /// width and shift.
+    fn set_grid_roughness(params: &mut FiberParams, beta: f64) {
+        params.sadeghi.alpha_r = -params.alpha;
+        params.sadeghi.beta_r = 0.5 * r_width(beta).to_degrees();
+    }
+
+    fn describe(params: &FiberParams) -> String {
+        let s = &params.sadeghi;
+        format!(
+            "alpha_R {}, beta_R {}, gamma_TT {} deg; I {}/{}/{}, I_g {}",
+            s.alpha_r, s.beta_r, s.gamma_tt, s.i_r, s.i_tt, s.i_trt, s.i_g
+        )
+    }
+}
+
+impl SamplerKind {
+    /// The Sadeghi model's flawed sampler (a name kept for the renderer).
+    #[allow(non_upper_case_globals)]
+    pub const BoxMuller: SamplerKind = SamplerKind::Flawed(ModelKind::Sadeghi);
 }
 
 /// x = pi - |phi| up to sign: wrap(phi - pi), TT's offset from its peak, in [-pi, pi].
@@ -305,7 +371,7 @@ fn mean_attenuation(eta: f64, sigma_a: Rgb) -> [Rgb; 3] {
     out
 }
 
-/// Seed 000's unnormalized Gaussian g(w^2, x) = exp(-x^2 / (2 w^2)).
+/// ISHair's unnormalized Gaussian g(w^2, x) = exp(-x^2 / (2 w^2)).
 fn gauss(width: f64, x: f64) -> f64 {
     (-0.5 * (x / width).powi(2)).exp()
 }
@@ -348,7 +414,7 @@ fn atan_diff(a: f64, b: f64) -> f64 {
     if ab > -1.0 { ((a - b) / (1.0 + ab)).atan() } else { a.atan() - b.atan() }
 }
 
-/// A Cauchy density of center c and width w cut to [lo, hi] and renormalized (seed 000 section
+/// A Cauchy density of center c and width w cut to [lo, hi] and renormalized (ISHair section
 /// 3.2): w / (((x - c)^2 + w^2) (atan(y_hi) - atan(y_lo))), y = (x - c) / w.
 #[derive(Clone, Copy, Debug)]
 struct Cauchy {
@@ -357,7 +423,7 @@ struct Cauchy {
     lo: f64,
     hi: f64,
     y_lo: f64,
-    /// atan(y_hi) - atan(y_lo): the seed's A - B, C_TT, C_g - D_g.
+    /// atan(y_hi) - atan(y_lo): ISHair's A - B, C_TT, C_g - D_g.
     mass: f64,
 }
 
@@ -496,7 +562,7 @@ impl SadeghiHit<'_> {
         out * a.projection
     }
 
-    /// ISHair's draw of (theta_i, phi) for lobe p (seed 000 sections 3.2.1, 3.2.2).
+    /// ISHair's draw of (theta_i, phi) for lobe p (ISHair sections 3.2.1, 3.2.2).
     fn draw_cauchy(&self, p: usize, u: [f64; 4]) -> (f64, f64) {
         let f = self.fiber;
         let theta_h = self.cauchy[LONG[p]].sample(u[1]);
@@ -508,7 +574,7 @@ impl SadeghiHit<'_> {
         ((2.0 * theta_h - self.theta_o).clamp(-FRAC_PI_2, FRAC_PI_2), dphi)
     }
 
-    /// Hery and Ramamoorthi's draw as seed 000 Appendices A and B describe it.
+    /// Hery and Ramamoorthi's draw as ISHair's Appendices A and B describe it.
     fn draw_box_muller(&self, p: usize, u: [f64; 4]) -> (f64, f64) {
         let f = self.fiber;
         let l = LONG[p];
@@ -586,7 +652,7 @@ mod tests {
             for (alpha, beta) in [(-0.13, 0.13), (0.2, 0.01), (-0.35, 0.5), (0.3, 1e-4)] {
                 let (lo, hi) = (0.5 * theta_r - FRAC_PI_4, 0.5 * theta_r + FRAC_PI_4);
                 let c = Cauchy::new(alpha, beta, lo, hi);
-                // The seed's density of theta_i (supplement 3.1 without its 1 / cos theta_i):
+                // ISHair's density of theta_i (supplement 3.1 without its 1 / cos theta_i):
                 // beta / (((theta_h - alpha)^2 + beta^2) 2 (A - B)), A and B of section 3.2.1.
                 let (a_, b_) = (((hi - alpha) / beta).atan(), ((lo - alpha) / beta).atan());
                 let density = |t: f64| {

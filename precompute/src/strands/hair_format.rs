@@ -1,4 +1,4 @@
-//! Cem Yuksel's .hair format (cemyuksel.com/research/hairmodels; design section 7), read and written.
+//! Cem Yuksel's .hair format (cemyuksel.com/research/hairmodels), read and written.
 //!
 //! Layout, all little-endian: a 128-byte header ("HAIR", u32 strand count, u32 point count, u32 flags,
 //! u32 default segments, f32 default thickness, f32 default transparency, f32[3] default color,

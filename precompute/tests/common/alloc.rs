@@ -1,6 +1,6 @@
-//! Shared by the test binaries that check bad files: the largest single allocation made by the
-//! current thread, to show that a lying header costs no memory. Per thread because the test harness
-//! runs tests in parallel.
+//! For the tests that check bad files: the largest single allocation made by the current thread,
+//! to show that a lying header costs no memory. Per thread because the test harness runs tests in
+//! parallel (and the allocator, which serves the whole test binary, only notes sizes).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

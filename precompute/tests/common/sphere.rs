@@ -1,6 +1,5 @@
 //! Shared by the fiber-model tests: integrals over the sphere of directions, the chi-square test
 //! of a sampler against its density, Monte Carlo means, and an independent Fresnel reflectance.
-#![allow(dead_code)] // each test binary that includes this module uses a part of it
 
 use glam::DVec3;
 use precompute::conventions::direction;

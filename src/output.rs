@@ -62,13 +62,16 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) ->
 
 /// Writes linear RGB pixels (rows top to bottom) as a 32-bit float EXR.
 pub fn write_exr(path: &Path, width: usize, height: usize, pixels: &[[f32; 3]]) -> Result<()> {
-    write_atomically(path, |tmp| {
-        exr::prelude::write_rgb_file(tmp, width, height, |x, y| {
-            let [r, g, b] = pixels[y * width + x];
-            (r, g, b)
-        })?;
-        Ok(())
-    })
+    use exr::prelude::{Encoding, Image, LineOrder, SpecificChannels, Vec2, WritableImage};
+    // Chunks in increasing order: compressed in parallel, they would otherwise be written as they
+    // finish, and the file's bytes would differ from run to run (its pixels would not).
+    let encoding = Encoding { line_order: LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let [r, g, b] = pixels[y * width + x];
+        (r, g, b)
+    });
+    let image = Image::from_encoded_channels((width, height), encoding, channels);
+    write_atomically(path, |tmp| Ok(image.write().to_file(tmp)?))
 }
 
 /// Writes an 8-bit RGB image as PNG.

@@ -488,7 +488,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<String> {
             copy_renders(dir, out)?;
         }
     }
-    let (n, mut args) = run.expect("clap requires a part");
+    let (n, mut args) = run.ok_or_else(|| invalid!("no converge folders to merge"))?;
     let missing: Vec<String> = (1..=n).filter(|k| !seen.contains_key(k)).map(|k| format!("{k}/{n}")).collect();
     ensure!(missing.is_empty(), "parts {} are missing", missing.join(", "));
     args.measure_only = true;

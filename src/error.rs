@@ -3,7 +3,7 @@
 //! of the readers and models of `precompute`), look at the file system ([`Error::Io`]), or resume
 //! an interrupted render ([`Error::Interrupted`]).
 //!
-//! [`bail!`], [`ensure!`] and [`Context`] build them as `anyhow`'s namesakes would, so that a
+//! `bail!`, `ensure!` and [`Context`] build them as `anyhow`'s namesakes would, so that a
 //! message reads the same whichever way it is printed: a context and its cause on one line,
 //! `context: cause`, never a cause twice.
 

@@ -255,7 +255,7 @@ impl DensityGrid {
     /// [0, t_max] (Zinke et al. 2008's n): the length density integrated along the ray (exactly,
     /// voxel by voxel) times the fiber width times the mean |sin| of the angle between the ray and
     /// the fibers (a fiber of width w at angle a to the ray presents a cross-section w |sin a| per
-    /// unit length; [`DensityGrid::across`]), per brick. `t_max` may be infinite; the march
+    /// unit length; `DensityGrid::across`), per brick. `t_max` may be infinite; the march
     /// stops past the bricks.
     pub fn fibers_crossed(&self, origin: DVec3, dir: DVec3, t_max: f64) -> f64 {
         self.march(origin, dir, t_max, true)

@@ -54,8 +54,10 @@ choices! {
     }
 }
 
-/// How an integrator draws directions at a fiber, combined with light sampling by MIS.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// How an integrator draws directions at a fiber, combined with light sampling by MIS. Ordered
+/// as [`Choice::choices`] lists them (the flawed samplers in the models' order), which is how
+/// `converge` sorts its methods.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Sampling {
     /// d'Eon et al. 2013 fiber importance sampling (for dual, a mixture covering all its terms).
     Importance,
@@ -102,20 +104,6 @@ impl Sampling {
             Sampling::Flawed(model) => SamplerKind::Flawed(model),
             Sampling::Importance | Sampling::Uniform | Sampling::Light => SamplerKind::Exact,
         }
-    }
-}
-
-/// In the order of [`Choice::choices`] (methods sort so in `converge`'s tables).
-impl Ord for Sampling {
-    fn cmp(&self, other: &Sampling) -> std::cmp::Ordering {
-        let at = |s: &Sampling| Sampling::choices().iter().position(|c| c.0 == *s);
-        at(self).cmp(&at(other))
-    }
-}
-
-impl PartialOrd for Sampling {
-    fn partial_cmp(&self, other: &Sampling) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
     }
 }
 
@@ -316,4 +304,22 @@ pub(crate) fn sample_cosine(n: DVec3, u: [f64; 2]) -> (DVec3, f64) {
     let (a, b) = n.any_orthonormal_pair();
     let d = (a * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize();
     (d, z * FRAC_1_PI)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn samplings_sort_as_they_are_listed_and_read_back_by_name() {
+        let listed: Vec<Sampling> = Sampling::choices().into_iter().map(|c| c.0).collect();
+        let mut sorted = listed.clone();
+        sorted.sort();
+        assert_eq!(sorted, listed);
+        assert!(listed.len() > 3, "every model with a flawed sampler adds one: {listed:?}");
+        for s in listed {
+            let json = serde_json::to_string(&s).unwrap();
+            assert_eq!(serde_json::from_str::<Sampling>(&json).unwrap(), s, "{json}");
+        }
+    }
 }

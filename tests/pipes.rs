@@ -62,6 +62,7 @@ fn every_printing_command_ends_quietly_on_a_closed_stdout() {
     let converge = [&brown, "--width", "8", "--height", "8", "--methods", "dual-importance,path-uniform", "-q"];
     let converge = [&["converge"][..], &converge, &["--spp", "1,2", "--seeds", "2", "--truth-spp", "8", "-o", "cv"]];
     quiet_on_closed_pipe(d, &converge.concat(), &["cv/error_vs_spp.svg"]);
-    let stability = ["stability", "--quick", "--samples", "3000", "--rays", "4000", "--hits", "2", "-q", "-o", "st"];
+    // Few samples: what is tested here is the pipe, not the estimates (tests/stability_cli.rs).
+    let stability = ["stability", "--quick", "--samples", "300", "--rays", "400", "--hits", "2", "-q", "-o", "st"];
     quiet_on_closed_pipe(d, &stability, &["st"]);
 }

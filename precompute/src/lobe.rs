@@ -7,7 +7,7 @@
 //! sampled at pixel centers. Then sum(pixel cos(theta) dtheta dphi) is the fiber's albedo.
 
 use crate::conventions::direction;
-use crate::fiber::{FiberHit, FiberModel};
+use crate::fiber::FiberModel;
 use crate::spectrum::Rgb;
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -57,12 +57,9 @@ pub fn lobe_image(
     let wo = direction(theta, 0.0);
     let (thetas, phis): (Vec<f64>, Vec<f64>) =
         ((0..height).map(|y| image.theta(y)).collect(), (0..width).map(|x| image.phi(x)).collect());
-    let hits: Vec<_> = h_rule.iter().map(|&(h, w)| (model.at(wo, h), w)).collect();
     image.pixels.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
-        for (x, px) in row.iter_mut().enumerate() {
-            let wi = direction(thetas[y], phis[x]);
-            *px = hits.iter().map(|(hit, w)| hit.eval(wi) * *w).sum();
-        }
+        let wis: Vec<_> = phis.iter().map(|&phi| direction(thetas[y], phi)).collect();
+        model.eval_h_average(wo, h_rule, &wis, row);
     });
     image
 }

@@ -2,7 +2,7 @@
 //! geometry against the paper's own compositions and closed forms, the energy against the smooth
 //! cylinder's, the exact sampler statistically, and the paper's iterative sampler measured.
 
-use crate::common::sphere::{chi_square_p_value, fresnel, mean_and_error, sphere_quadrature};
+use crate::common::sphere::{chi_square_p_value, fresnel, mean_and_error, sphere_integrals, sphere_quadrature};
 use glam::DVec3;
 use precompute::conventions::{direction, wrap_angle};
 use precompute::fiber::{
@@ -66,30 +66,6 @@ fn smooth_energies(theta: f64, eta: f64) -> [f64; 3] {
         e[2] += (1.0 - f).powi(2) * f * dh;
     }
     e
-}
-
-/// Integrals over the sphere of several integrands in one pass (composite Gauss-Legendre in
-/// (theta, phi) as [`sphere_quadrature`], which takes one): the model is costly to evaluate.
-fn sphere_integrals<const N: usize>(
-    g: impl Fn(DVec3) -> [f64; N] + Sync,
-    theta_panels: usize,
-    phi_panels: usize,
-) -> [f64; N] {
-    let phis = composite(-PI, PI, phi_panels, 4);
-    composite(-FRAC_PI_2, FRAC_PI_2, theta_panels, 4)
-        .par_iter()
-        .map(|&(t, wt)| {
-            let mut row = [0.0; N];
-            for &(ph, wp) in &phis {
-                for (r, v) in row.iter_mut().zip(g(direction(t, ph))) {
-                    *r += v * wp * wt * t.cos();
-                }
-            }
-            row
-        })
-        .collect::<Vec<_>>()
-        .iter()
-        .fold([0.0; N], |a, b| std::array::from_fn(|k| a[k] + b[k])) // in order (see sphere_quadrature)
 }
 
 #[test]
@@ -191,7 +167,7 @@ fn deflections_follow_a_traced_smooth_fiber() {
 }
 
 #[test]
-fn untilted_derivatives_are_the_seeds() {
+fn untilted_derivatives_are_the_papers() {
     // The paper's section 2.2 printed derivatives at alpha = 0: dx_R/dalpha_1 = -2z,
     // dx_TT/dalpha_{1,2} = eta z' - z, dx_TRT/dalpha_{1..3} = [eta z' - z, 2 eta z', eta z' - z],
     // z = sqrt(1 - x^2 - y^2), z' = sqrt(1 - (x^2 + y^2) / eta^2).
@@ -299,7 +275,7 @@ fn r_cone_is_minus_theta_untilted_and_the_signed_closed_form_tilted() {
 }
 
 #[test]
-fn tt_reflects_internally_where_the_seed_says_for_its_tilt() {
+fn tt_reflects_internally_where_the_paper_says_for_its_tilt() {
     // Section 2.4: "For tilt angles as small as 2 degrees no TT energy escapes a smooth fiber
     // for theta_i < -1.1" (its figures' tilt is alpha = -2 degrees). With our alpha = +2 the
     // compositions reflect TT internally for every h below theta = -1.19 (and for |h| > 0.6 at
@@ -441,7 +417,7 @@ fn seed_grid() -> Vec<(f64, f64, f64, f64, f64)> {
 }
 
 #[test]
-fn seed_iteration_on_the_seed_grid() {
+fn papers_iteration_on_its_grid() {
     // The paper's loop (sample_iterated) on its whole grid, 8 draws each: iterations until theta
     // moves by less than a thousandth of the lobe's standard deviation. The paper: "on average,
     // only 2 iterations ... and no more than 8 iterations worst case". The average holds; the worst
@@ -486,7 +462,7 @@ fn seed_iteration_on_the_seed_grid() {
 }
 
 #[test]
-fn seed_iteration_is_biased_where_its_density_departs_from_the_models() {
+fn papers_iteration_is_biased_where_its_density_departs_from_the_models() {
     // The albedo of brown hair by quadrature (truth) against importance estimates, both reporting
     // the model's density: the exact sampler is unbiased (4 standard errors); the paper's loop is
     // not at grazing light, where its theta_d widths and TT cone at h(phi) depart from the model

@@ -56,7 +56,7 @@ const MU_AS: [f64; 14] = [0.0, 0.003, 0.006, 0.015, 0.03, 0.06, 0.12, 0.25, 0.5,
 const BETAS: [f64; 10] = [0.0025, 0.005, 0.01, 0.02, 0.03, 0.04, 0.06, 0.08, 0.15, 0.3];
 const ETAS: [f64; 2] = [1.55, 1.55 / 1.33];
 
-/// The slices' fixed values: the seed's figures use beta = 0.04.
+/// The slices' fixed values: d'Eon, Marschner and Hanika 2014's figures use beta = 0.04.
 const SLICE_BETA: f64 = 0.04;
 const BASE: GridPoint = GridPoint { theta: 0.0, beta: SLICE_BETA, alpha: 0.0, mu_a: 0.0, eta: 1.55 };
 
@@ -250,7 +250,7 @@ fn measure(slice: &'static str, p: &GridPoint, args: &StabilitySettings, seed: u
     Ok(rows)
 }
 
-/// Points where the lobes are drawn beside the simulation: the seed's figures' roughnesses and
+/// Points where the lobes are drawn beside the simulation: the paper's figures' roughnesses and
 /// absorptions (d'Eon, Marschner and Hanika 2014 figures 3-5), from a near-normal to a grazing light.
 const LOBE_POINTS: [GridPoint; 4] = [
     GridPoint { theta: 0.5, beta: 0.04, alpha: 2.0, mu_a: 0.25, eta: 1.55 },

@@ -81,7 +81,7 @@ fn tables(args: &TablesArgs) -> Result<()> {
         settings.theta_count = n;
     }
     eprintln!(
-        "computing {} light inclinations ({} h nodes, {} threads; about 15 s for the default fiber on 2 cores)...",
+        "computing {} light inclinations ({} h nodes, {} threads; about 4 s for the default fiber on 2 cores)...",
         settings.theta_count,
         settings.h_rule.len(),
         rayon::current_num_threads()

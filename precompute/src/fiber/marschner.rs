@@ -505,6 +505,14 @@ impl MarschnerHit<'_> {
             .sum()
     }
 
+    /// The density of the sampler this fiber draws with.
+    fn density(&self, a: &Angles) -> f64 {
+        match self.fiber.pdf {
+            MarschnerPdf::Exact => self.exact_pdf(a),
+            MarschnerPdf::Thesis => self.thesis_pdf(a),
+        }
+    }
+
     fn value(&self, a: &Angles) -> Rgb {
         let sum: Rgb = (0..LOBES).map(|p| self.fiber.n(&a.plane, p, a.phi) * self.m(p, a, 0.0)).sum();
         sum * self.projection(a)
@@ -531,11 +539,12 @@ impl FiberHit for MarschnerHit<'_> {
 
     fn eval_pdf(&self, wi: DVec3) -> (Rgb, f64) {
         let a = self.angles(wi);
-        let pdf = match self.fiber.pdf {
-            MarschnerPdf::Exact => self.exact_pdf(&a),
-            MarschnerPdf::Thesis => self.thesis_pdf(&a),
-        };
-        (self.value(&a), pdf)
+        (self.value(&a), self.density(&a))
+    }
+
+    /// Without the value, which costs as much again (both solve for the azimuthal roots).
+    fn pdf(&self, wi: DVec3) -> f64 {
+        self.density(&self.angles(wi))
     }
 }
 

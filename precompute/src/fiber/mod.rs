@@ -63,6 +63,17 @@ pub trait FiberModel: Send + Sync {
 
     /// The model at the hit with fixed direction `wo` (local) and offset `h`.
     fn at(&self, wo: DVec3, h: f64) -> Self::Hit<'_>;
+
+    /// The h-average sum_k w_k f(wo, wi; h_k) over the rule `(h_k, w_k)` (what the tables and
+    /// lobe images integrate: Zinke et al. 2008's f averaged over the fiber's width) at each
+    /// direction of `wis`, into `out`. A model whose lobes share work across offsets overrides it
+    /// with the same sum, added in the same order.
+    fn eval_h_average(&self, wo: DVec3, rule: &[(f64, f64)], wis: &[DVec3], out: &mut [Rgb]) {
+        let hits: Vec<_> = rule.iter().map(|&(h, w)| (self.at(wo, h), w)).collect();
+        for (wi, o) in wis.iter().zip(out) {
+            *o = hits.iter().map(|(hit, w)| hit.eval(*wi) * *w).sum();
+        }
+    }
 }
 
 /// A fiber model at one hit (fixed `wo` and `h`: [`FiberModel::at`]).
@@ -136,6 +147,10 @@ impl<H: FiberHit> FiberHit for UniformHit<H> {
 
     fn eval_pdf(&self, wi: DVec3) -> (Rgb, f64) {
         (self.0.eval(wi), 1.0 / SPHERE)
+    }
+
+    fn pdf(&self, _wi: DVec3) -> f64 {
+        1.0 / SPHERE
     }
 }
 

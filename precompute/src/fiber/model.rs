@@ -255,6 +255,12 @@ macro_rules! models {
                     $(Fiber::$variant(m) => FiberAt::$variant(m.at(wo, h)),)+
                 }
             }
+
+            fn eval_h_average(&self, wo: DVec3, rule: &[(f64, f64)], wis: &[DVec3], out: &mut [Rgb]) {
+                match self {
+                    $(Fiber::$variant(m) => m.eval_h_average(wo, rule, wis, out),)+
+                }
+            }
         }
 
         impl FiberHit for FiberAt<'_> {
@@ -273,6 +279,12 @@ macro_rules! models {
             fn eval_pdf(&self, wi: DVec3) -> (Rgb, f64) {
                 match self {
                     $(FiberAt::$variant(h) => h.eval_pdf(wi),)+
+                }
+            }
+
+            fn pdf(&self, wi: DVec3) -> f64 {
+                match self {
+                    $(FiberAt::$variant(h) => h.pdf(wi),)+
                 }
             }
         }

@@ -13,15 +13,34 @@ use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Integral over the sphere of `g(wi)` by composite Gauss-Legendre in (theta, phi).
 pub fn sphere_quadrature(g: impl Fn(DVec3) -> f64 + Sync, theta_panels: usize, phi_panels: usize) -> f64 {
+    let [total] = sphere_integrals(|wi| [g(wi)], theta_panels, phi_panels);
+    total
+}
+
+/// Integrals over the sphere of several integrands in one pass, as [`sphere_quadrature`]: for
+/// models that are costly to evaluate, or several channels of one evaluation.
+pub fn sphere_integrals<const N: usize>(
+    g: impl Fn(DVec3) -> [f64; N] + Sync,
+    theta_panels: usize,
+    phi_panels: usize,
+) -> [f64; N] {
     let thetas = composite(-FRAC_PI_2, FRAC_PI_2, theta_panels, 4);
     let phis = composite(-PI, PI, phi_panels, 4);
     // Rows in parallel, summed in order: rayon's parallel sum adds in whatever order the threads
     // finish, which changes the last bits from run to run.
-    let rows: Vec<f64> = thetas
+    let rows: Vec<[f64; N]> = thetas
         .par_iter()
-        .map(|&(t, wt)| phis.iter().map(|&(p, wp)| g(direction(t, p)) * wp).sum::<f64>() * wt * t.cos())
+        .map(|&(t, wt)| {
+            let mut row = [0.0; N];
+            for &(p, wp) in &phis {
+                for (r, v) in row.iter_mut().zip(g(direction(t, p))) {
+                    *r += v * wp;
+                }
+            }
+            row.map(|r| r * wt * t.cos())
+        })
         .collect();
-    rows.iter().sum()
+    rows.iter().fold([0.0; N], |a, b| std::array::from_fn(|k| a[k] + b[k]))
 }
 
 /// Chi-square test of `model.sample` against `model.pdf` on an equal-area (sin theta, phi) grid.

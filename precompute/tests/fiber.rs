@@ -5,8 +5,9 @@ use glam::DVec3;
 use precompute::conventions::{SPHERE, direction};
 use precompute::fiber::{
     Absorption, Chiang, FiberHit, FiberModel, FiberParams, FiberSample, SpreadHit, UniformSampled, mp,
+    scale_from_beta_n,
 };
-use precompute::quadrature::composite;
+use precompute::quadrature::{composite, h_rule};
 use precompute::special::i0e;
 use precompute::spectrum::Rgb;
 use rand::{Rng, SeedableRng};
@@ -118,6 +119,31 @@ fn white_furnace_importance_sampling() {
         .reduce(|| (0.0, (0.0, 0.0, 0.0, 0.0, 0.0)), |x, y| if x.0 >= y.0 { x } else { y });
     println!("importance furnace: worst |albedo - 1| = {:.2e} at {:?}", worst.0, worst.1);
     assert!(worst.0 < 0.005, "importance furnace off by {} at {:?}", worst.0, worst.1);
+}
+
+#[test]
+fn h_average_shares_work_across_offsets_with_the_same_bits() {
+    // Chiang's own h-average (M_p once per direction) against the plain per-offset sum, which
+    // `UniformSampled` inherits (its hits evaluate as the model's): equal bit for bit, for
+    // absorbing, tilted and grazing cases, one-node and empty rules included.
+    let mut rng = Pcg64::seed_from_u64(17);
+    for (bm, bn, a, sa, theta_o) in
+        [(0.3, 0.3, 2.0, 0.0, 0.4), (0.1, 0.5, -4.0, 0.8, -1.2), (0.6, 0.2, 0.0, 3.0, 1.5707)]
+    {
+        let model = fiber(bm, bn, a, sa);
+        let wo = direction(theta_o, 0.7);
+        let wis: Vec<DVec3> = (0..200)
+            .map(|_| direction((2.0 * rng.random::<f64>() - 1.0).asin(), PI * (2.0 * rng.random::<f64>() - 1.0)))
+            .collect();
+        for rule in [h_rule(8.0 * scale_from_beta_n(bn), 1), vec![(0.3, 1.0)], vec![]] {
+            let mut shared = vec![Rgb::splat(f64::NAN); wis.len()];
+            let mut plain = vec![Rgb::splat(f64::NAN); wis.len()];
+            model.eval_h_average(wo, &rule, &wis, &mut shared);
+            UniformSampled(model.clone()).eval_h_average(wo, &rule, &wis, &mut plain);
+            assert!(shared.iter().zip(&plain).all(|(x, y)| x.0.map(f64::to_bits) == y.0.map(f64::to_bits)));
+            assert!(rule.is_empty() || shared.iter().any(|f| f.luminance() > 0.0), "{:?}", (bm, bn, rule.len()));
+        }
+    }
 }
 
 #[test]

@@ -279,16 +279,16 @@ fn half_moments(
 ) -> [Moments; 2] {
     let wo = direction(theta, 0.0);
     let mut out = [Moments::default(); 2];
-    let (mut wis, mut f_bar) = (Vec::new(), Vec::new());
+    let (mut wis, mut averages) = (Vec::new(), Vec::new());
     for &(t, wt) in theta_i {
         let th = 0.5 * (theta + t);
         let cos_t = t.cos();
         // The row's directions, both halves, and f averaged over h at each.
         wis.clear();
         wis.extend(halves.iter().flatten().map(|&(p, _)| direction(t, p)));
-        f_bar.resize(wis.len(), Rgb::ZERO);
-        model.eval_h_average(wo, h_rule, &wis, &mut f_bar);
-        let mut row = f_bar.iter();
+        averages.resize(wis.len(), Rgb::ZERO);
+        model.eval_h_average(wo, h_rule, &wis, &mut averages);
+        let mut row = averages.iter();
         for (half, rule) in out.iter_mut().zip(halves) {
             for (&(_, wp), &f_bar) in rule.iter().zip(&mut row) {
                 let e = f_bar * (wt * wp * cos_t);
